@@ -1,0 +1,62 @@
+//! Vulkan compute plumbing for psdr: device choice, storage buffers, compute kernels, batched dispatch,
+//! GPU timing and validation. It knows nothing of rendering; psdr's kernels are built on top of it.
+//!
+//! Runs on any Vulkan 1.2 device, including Mesa's lavapipe on the CPU (CI). Environment:
+//! - `PSDR_VK_DEVICE=<substring>` picks a device by name (else: discrete > integrated > virtual > CPU).
+//! - `PSDR_VK_VALIDATION=0/1` forces the Khronos validation layer off/on (default: on in debug builds
+//!   when installed).
+//!
+//! ```no_run
+//! use psdr_vk::{Buffer, Context, Groups, Kernel};
+//!
+//! #[repr(C)]
+//! #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+//! struct Push { a: f32, n: u32 }
+//!
+//! # fn main() -> psdr_vk::Result<()> {
+//! let ctx = Context::new()?; // or Context::with_options(&ContextOptions { device: Some("llvmpipe".into()), .. })
+//! let words = psdr_vk::include_spirv!("saxpy")?; // compiled to $OUT_DIR/saxpy.spv by build.rs
+//! let saxpy: Kernel<Push> = Kernel::new(&ctx, "saxpy", &words, 2)?;
+//!
+//! let n = 1 << 20;
+//! let x = Buffer::from_slice(&ctx, "x", &vec![1.0f32; n])?;
+//! let y = Buffer::from_slice(&ctx, "y", &vec![2.0f32; n])?;
+//! let push = Push { a: 3.0, n: n as u32 };
+//! let timings = saxpy.dispatch(&[&x, &y], &push, Groups::folded_2d(n as u64, 256))?;
+//! println!("saxpy took {:?} ms on the GPU", timings.gpu_ms);
+//! assert_eq!(y.download()?[0], 5.0);
+//!
+//! // Several passes in one submission, with barriers between them:
+//! let mut pass = ctx.batch();
+//! pass.fill_zero(&y)?
+//!     .dispatch(&saxpy, &[&x, &y], &push, Groups::folded_2d(n as u64, 256))?
+//!     .dispatch(&saxpy, &[&x, &y], &push, Groups::folded_2d(n as u64, 256))?;
+//! let t = pass.submit()?;
+//! # let _ = t; Ok(()) }
+//! ```
+
+mod batch;
+mod buffer;
+mod capabilities;
+mod context;
+mod device;
+mod error;
+mod groups;
+mod instance;
+mod kernel;
+mod spirv;
+mod timing;
+mod validation;
+
+pub use ash;
+pub use batch::Batch;
+pub use buffer::{Buffer, BufferBinding, StorageBinding};
+pub use capabilities::Capabilities;
+pub use context::{Context, ContextOptions};
+pub use device::{list_devices, DeviceInfo, DeviceKind, DEVICE_ENV};
+pub use error::{Result, VkError, INSTALL_HINT};
+pub use groups::{Groups, GUARANTEED_MAX_GROUPS};
+pub use kernel::Kernel;
+pub use spirv::{spirv_from_bytes, SPIRV_MAGIC};
+pub use timing::{CommandTiming, Timings};
+pub use validation::{Severity, ValidationMessage, ValidationMode};
