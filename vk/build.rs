@@ -29,8 +29,8 @@ fn main() {
         let stem = path.file_stem().expect("file name").to_string_lossy();
         let spv = out_dir.join(format!("{stem}.spv"));
         let output = Command::new(&compiler)
-            .args(["-V", "--target-env", "vulkan1.2", "-I"])
-            .arg(&shader_dir)
+            .args(["-V", "--target-env", "vulkan1.2"])
+            .arg(format!("-I{}", shader_dir.display()))
             .arg("-o")
             .arg(&spv)
             .arg(path)
