@@ -49,7 +49,7 @@ impl<P: Pod> Kernel<P> {
             reason,
         };
         let push_bytes = std::mem::size_of::<P>();
-        if push_bytes % 4 != 0 || push_bytes > caps.max_push_constants_size as usize {
+        if !push_bytes.is_multiple_of(4) || push_bytes > caps.max_push_constants_size as usize {
             return Err(bad(format!(
                 "push constants are {push_bytes} bytes; they must be a multiple of 4 and at most \
                  maxPushConstantsSize = {}",

@@ -110,4 +110,21 @@ fn kernels_run_without_validation_errors() {
         "{} validation errors: {errors:#?}",
         errors.len()
     );
+
+    // And the layer really checks: a buffer with no usage flags violates a VUID (the driver accepts it anyway).
+    let device = ctx.raw_device();
+    let info = psdr_vk::ash::vk::BufferCreateInfo::default().size(64);
+    // SAFETY: a valid device; the buffer is destroyed right away and never bound or used.
+    unsafe {
+        if let Ok(b) = device.create_buffer(&info, None) {
+            device.destroy_buffer(b, None);
+        }
+    }
+    let errors = ctx.validation_errors();
+    assert!(
+        !errors.is_empty(),
+        "the validation layer did not flag a buffer without usage flags"
+    );
+    eprintln!("{test}: deliberate misuse was caught: {}", errors[0]);
+    ctx.clear_validation_messages();
 }
