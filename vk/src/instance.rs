@@ -58,16 +58,26 @@ impl Instance {
             && (extension_present(&entry, None, ext::debug_utils::NAME)?
                 || extension_present(&entry, Some(VALIDATION_LAYER), ext::debug_utils::NAME)?);
 
+        // Synchronization validation catches missing barriers between passes; cheap for compute-only work.
+        let validation_features = validation
+            && extension_present(
+                &entry,
+                Some(VALIDATION_LAYER),
+                ext::validation_features::NAME,
+            )?;
+
         let layers: Vec<*const std::ffi::c_char> = if validation {
             vec![VALIDATION_LAYER.as_ptr()]
         } else {
             vec![]
         };
-        let extensions: Vec<*const std::ffi::c_char> = if debug_utils {
-            vec![ext::debug_utils::NAME.as_ptr()]
-        } else {
-            vec![]
-        };
+        let mut extensions: Vec<*const std::ffi::c_char> = Vec::new();
+        if debug_utils {
+            extensions.push(ext::debug_utils::NAME.as_ptr());
+        }
+        if validation_features {
+            extensions.push(ext::validation_features::NAME.as_ptr());
+        }
 
         let log: MessageLog = Arc::new(Mutex::new(Vec::new()));
         let app = vk::ApplicationInfo::default()
@@ -82,6 +92,12 @@ impl Instance {
             .enabled_extension_names(&extensions);
         if debug_utils {
             create = create.push_next(&mut chained_messenger);
+        }
+        let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut features =
+            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
+        if validation_features {
+            create = create.push_next(&mut features);
         }
         // SAFETY: every pointer in `create` borrows locals that outlive the call; `log` outlives the instance.
         let raw =
