@@ -4,7 +4,14 @@
 //! Runs on any Vulkan 1.2 device, including Mesa's lavapipe on the CPU (CI). Environment:
 //! - `PSDR_VK_DEVICE=<substring>` picks a device by name (else: discrete > integrated > virtual > CPU).
 //! - `PSDR_VK_VALIDATION=0/1` forces the Khronos validation layer off/on (default: on in debug builds
-//!   when installed).
+//!   when installed). With it, synchronization validation is on too; messages are collected in
+//!   [`Context::validation_messages`].
+//!
+//! Kernels are GLSL compiled by the using crate's build.rs with
+//! `glslangValidator -V --target-env vulkan1.2 -o $OUT_DIR/<name>.spv <name>.comp` (see this crate's build.rs)
+//! and loaded with [`include_spirv!`]. Binding `i` of set 0 is `buffers[i]`; push constants are one
+//! `#[repr(C)]` Pod struct (at most `maxPushConstantsSize`, 128 bytes on lavapipe). Every submission is
+//! waited for, so downloads right after a dispatch see its results.
 //!
 //! ```no_run
 //! use psdr_vk::{Buffer, Context, Groups, Kernel};
@@ -60,3 +67,12 @@ pub use kernel::Kernel;
 pub use spirv::{spirv_from_bytes, SPIRV_MAGIC};
 pub use timing::{CommandTiming, Timings};
 pub use validation::{Severity, ValidationMessage, ValidationMode};
+
+// Shared across threads by the renderer (rayon CPU side next to GPU submissions).
+#[allow(dead_code)]
+fn assert_thread_safe() {
+    fn both<T: Send + Sync>() {}
+    both::<Context>();
+    both::<Buffer<f32>>();
+    both::<Kernel<()>>();
+}
