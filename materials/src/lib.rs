@@ -1,0 +1,18 @@
+//! Differentiable procedural material graphs.
+pub mod error;
+pub mod evaluator;
+pub mod graph;
+pub mod graph_file;
+pub mod image;
+pub mod kernel;
+pub mod node_op;
+pub mod nodes;
+pub mod noise;
+pub mod real;
+pub mod render_maps;
+
+pub use error::{GraphError, ParamError};
+pub use evaluator::Evaluator;
+pub use graph::{Graph, ParamInfo, ParamKind, Params};
+pub use image::Image;
+pub use render_maps::{RenderGrads, RenderMaps};
