@@ -7,6 +7,15 @@ use crate::node_op::{BackwardCtx, NodeArgs, MAX_INPUTS};
 use crate::render_maps::{RenderGrads, RenderMaps};
 use rayon::prelude::*;
 
+/// Which material output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapKind {
+    BaseColor,
+    Roughness,
+    Normal,
+    Height,
+}
+
 /// Row accumulator lanes per image row (the dual kernels use 16).
 const ROW_ACC_LANES: usize = 16;
 
@@ -174,6 +183,19 @@ impl Evaluator {
             o.height.map(|k| &self.images[k]),
         );
         &self.maps
+    }
+
+    /// The graph's own (f64) image behind one output map, after the last evaluation
+    /// (`base_color` is sRGB and may be grey; `None` for absent normal / height).
+    pub fn output_image(&self, map: MapKind) -> Option<&Image> {
+        let o = self.graph.outputs;
+        let k = match map {
+            MapKind::BaseColor => Some(o.base_color),
+            MapKind::Roughness => Some(o.roughness),
+            MapKind::Normal => o.normal,
+            MapKind::Height => o.height,
+        }?;
+        Some(&self.images[k])
     }
 
     /// The maps of the last [`Evaluator::forward`].

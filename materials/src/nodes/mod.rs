@@ -205,8 +205,8 @@ pub static NODES: &[NodeSpec] = &[
         doc: "Soft stripes; integer frequencies along u and v give straight or diagonal stripes.",
         inputs: &[],
         slots: &[
-            int("freq_x", 0, 256, 0, "stripes across u"),
-            int("freq_y", 0, 256, 8, "stripes across v"),
+            int("freq_x", -256, 256, 0, "stripes across u"),
+            int("freq_y", -256, 256, 8, "stripes across v"),
             float("width", 0.0, 1.0, 0.5, "duty cycle"),
             float("softness", 0.001, 0.5, 0.02, "edge softness, periods"),
         ],
