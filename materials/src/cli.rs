@@ -13,13 +13,19 @@ pub enum CliError {
     #[error("unknown material '{name}'; run `psdr materials list` (known: {known})")]
     UnknownMaterial { name: String, known: String },
     #[error(transparent)]
-    Graph(#[from] GraphError),
+    Graph(Box<GraphError>),
     #[error("{0}")]
     Param(#[from] ParamError),
     #[error("--size {0}: must be between 4 and 8192")]
     Size(usize),
     #[error("{path}: {msg}")]
     Io { path: PathBuf, msg: String },
+}
+
+impl From<GraphError> for CliError {
+    fn from(e: GraphError) -> Self {
+        CliError::Graph(Box::new(e))
+    }
 }
 
 /// One line of `psdr materials list`.
@@ -158,8 +164,13 @@ pub const SHEET_SWATCH: usize = 128;
 /// previews, labelled with names, in library order). Returns a printable
 /// legend (index, name, description).
 pub fn sheet(out: &Path) -> Result<String, CliError> {
+    sheet_with(out, SHEET_SWATCH)
+}
+
+/// [`sheet`] with swatches of `swatch` pixels.
+pub fn sheet_with(out: &Path, swatch: usize) -> Result<String, CliError> {
     let names = library::names();
-    let (sw, label) = (SHEET_SWATCH, 16);
+    let (sw, label) = (swatch.max(4), 16);
     let cell_w = sw + 32;
     let cell_h = sw + label + 8;
     let cols = 8;

@@ -28,11 +28,10 @@ pub enum GraphError {
         input: String,
         target: String,
     },
-    #[error("{file}: node '{node}': node type '{kind}' has no input '{input}' (inputs: {known})")]
+    #[error("{file}: node '{node}': its type has no input '{input}' (inputs: {known})")]
     UnknownInput {
         file: String,
         node: String,
-        kind: String,
         input: String,
         known: String,
     },
@@ -42,22 +41,22 @@ pub enum GraphError {
         node: String,
         input: String,
     },
-    #[error("{file}: node '{node}': input '{input}' must be {expected} but node '{source_node}' gives {got}")]
+    #[error(
+        "{file}: node '{node}': input '{input}' must be {expected} but its source gives {got}"
+    )]
     Channels {
         file: String,
         node: String,
         input: String,
-        source_node: String,
         expected: &'static str,
         got: &'static str,
     },
     #[error("{file}: cycle in the graph: {path}")]
     Cycle { file: String, path: String },
-    #[error("{file}: node '{node}': node type '{kind}' has no parameter '{param}' (parameters: {known})")]
+    #[error("{file}: node '{node}': its type has no parameter '{param}' (parameters: {known})")]
     UnknownSlot {
         file: String,
         node: String,
-        kind: String,
         param: String,
         known: String,
     },

@@ -145,7 +145,6 @@ impl Graph {
                     return Err(GraphError::UnknownInput {
                         file: f.clone(),
                         node: n.id.clone(),
-                        kind: n.kind.clone(),
                         input: input.clone(),
                         known: spec
                             .inputs
@@ -200,7 +199,6 @@ impl Graph {
                             file: f.clone(),
                             node: n.id.clone(),
                             input: i.name.to_string(),
-                            source_node: nodes[s].id.clone(),
                             expected: channel_name(if i.channels == Channels::Gray {
                                 1
                             } else {
@@ -544,7 +542,6 @@ fn bind_slots(
             return Err(GraphError::UnknownSlot {
                 file: file.to_string(),
                 node: n.id.clone(),
-                kind: n.kind.clone(),
                 param: key.clone(),
                 known: spec
                     .slots

@@ -4,6 +4,9 @@
 //! numbers seeded on at most 16 local variables at a time and contracts the
 //! per-texel Jacobian with dL/d(output): exact reverse mode, no tape.
 
+// Lockstep indexing over dual lanes reads clearer than zips.
+#![allow(clippy::needless_range_loop)]
+
 use crate::image::Image;
 use crate::node_op::{BackwardCtx, NodeArgs, NodeOp, RowWriter, MAX_FLOAT_SLOTS, MAX_INPUTS};
 use crate::real::{Dual, Real};

@@ -5,6 +5,9 @@
 //! them with `f64` for the forward pass and with duals for the per-texel local
 //! Jacobian, which it then contracts with dL/d(output) (exact reverse mode).
 
+// Lockstep indexing over the derivative lanes of several duals reads clearer than zips.
+#![allow(clippy::needless_range_loop)]
+
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Number type for node kernels.

@@ -95,8 +95,9 @@ pub(crate) fn seed(k: usize, o: OutputNodes, g: &RenderGrads, img: &Image, grad:
             grad.data.par_chunks_mut(ch).enumerate().for_each(|(i, d)| {
                 for c in 0..3 {
                     let s = img.data[i * ch + if ch == 1 { 0 } else { c }];
-                    // Clamped outside [0, 1]: zero derivative there.
-                    if s > 0.0 && s < 1.0 {
+                    // Clamped outside [0, 1]: zero derivative there (one-sided at
+                    // the bounds, so a value resting on a bound can move back).
+                    if (0.0..=1.0).contains(&s) {
                         d[if ch == 1 { 0 } else { c }] +=
                             ga[i * 3 + c] as f64 * srgb_to_linear(s).1;
                     }
@@ -109,7 +110,7 @@ pub(crate) fn seed(k: usize, o: OutputNodes, g: &RenderGrads, img: &Image, grad:
             check_len("roughness", gr.len(), n2);
             grad.data.par_iter_mut().enumerate().for_each(|(i, d)| {
                 let s = img.data[i];
-                if s > 0.0 && s < 1.0 {
+                if (0.0..=1.0).contains(&s) {
                     *d += gr[i] as f64;
                 }
             });

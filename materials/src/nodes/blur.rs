@@ -73,6 +73,7 @@ fn convolve(
 }
 
 /// Per-row sums of g * (src convolved with dtaps), reduced in row order.
+#[allow(clippy::too_many_arguments)]
 fn dot_dconv(
     g: &[f64],
     src: &[f64],

@@ -106,9 +106,9 @@ fn backward_mapped<M: Mapping>(
                     scatter(&mut cx.d_ins[0], px, py, c, gc);
                 }
             }
-            for s in 0..nf {
+            for (s, j) in jac.iter().enumerate().take(nf) {
                 if cx.active[s] {
-                    cx.d_params[s] += gx * jac[s].0 + gy * jac[s].1;
+                    cx.d_params[s] += gx * j.0 + gy * j.1;
                 }
             }
             if aux.is_some() && cx.need_in.get(1) == Some(&true) {

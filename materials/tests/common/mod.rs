@@ -49,7 +49,8 @@ pub fn check_fd(
         let lm = loss(ev, &p);
         let fd = (lp - lm) / (2.0 * h);
         let a = analytic[k];
-        if !((a - fd).abs() <= rel * (a.abs() + fd.abs()) + abs) {
+        let ok = (a - fd).abs() <= rel * (a.abs() + fd.abs()) + abs;
+        if !ok || !a.is_finite() {
             return Err(format!(
                 "param {} ({k}): analytic {a:.9e} vs FD {fd:.9e}",
                 names[k]
