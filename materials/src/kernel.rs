@@ -61,8 +61,14 @@ impl<G: Generator> NodeOp for GenNode<G> {
         d_out: &Image,
         cx: BackwardCtx,
     ) {
-        let lanes: Vec<usize> = (0..a.f.len()).filter(|&s| cx.active[s]).collect();
-        for chunk in lanes.chunks(LANES) {
+        // Fixed-size lane list: no heap allocation per call.
+        let mut lanes = [0usize; MAX_FLOAT_SLOTS];
+        let mut nl = 0;
+        for s in (0..a.f.len()).filter(|&s| cx.active[s]) {
+            lanes[nl] = s;
+            nl += 1;
+        }
+        for chunk in lanes[..nl].chunks(LANES) {
             let acc = &mut cx.row_acc[..a.size * LANES];
             match chunk.len() {
                 1 => gen_chunk::<G, 1>(&self.0, a, d_out, chunk, acc),
@@ -168,22 +174,28 @@ impl<P: Pointwise> NodeOp for PointNode<P> {
         d_out: &Image,
         cx: BackwardCtx,
     ) {
-        let mut lanes: Vec<Lane> = (0..a.f.len())
-            .filter(|&s| cx.active[s])
-            .map(Lane::Slot)
-            .collect();
+        // Fixed-size lane and writer lists: no heap allocation per call.
+        let mut lanes = [Lane::Slot(0); MAX_FLOAT_SLOTS + 3 * MAX_INPUTS];
+        let mut nl = 0;
+        for s in (0..a.f.len()).filter(|&s| cx.active[s]) {
+            lanes[nl] = Lane::Slot(s);
+            nl += 1;
+        }
         for (j, im) in ins.iter().enumerate() {
             if let (Some(im), true) = (im, cx.need_in[j]) {
-                lanes.extend((0..im.channels).map(|c| Lane::In(j, c)));
+                for c in 0..im.channels {
+                    lanes[nl] = Lane::In(j, c);
+                    nl += 1;
+                }
             }
         }
-        let writers: Vec<Option<RowWriter>> = cx
-            .d_ins
-            .iter_mut()
-            .enumerate()
-            .map(|(j, d)| (ins[j].is_some() && cx.need_in[j]).then(|| RowWriter::new(&mut d.data)))
-            .collect();
-        for chunk in lanes.chunks(LANES) {
+        let mut writers: [Option<RowWriter>; MAX_INPUTS] = [None, None, None];
+        for (j, d) in cx.d_ins.iter_mut().enumerate() {
+            if ins[j].is_some() && cx.need_in[j] {
+                writers[j] = Some(RowWriter::new(&mut d.data));
+            }
+        }
+        for chunk in lanes[..nl].chunks(LANES) {
             let acc = &mut cx.row_acc[..a.size * LANES];
             let w = &writers[..];
             match chunk.len() {
@@ -216,19 +228,12 @@ fn pw_chunk<P: Pointwise, const N: usize>(
 ) {
     let n = a.size;
     let oc = a.out_channels;
-    let slot_lanes: Vec<usize> = lanes
-        .iter()
-        .map(|l| match l {
-            Lane::Slot(s) => *s,
-            Lane::In(..) => usize::MAX,
-        })
-        .collect();
     let mut fp = [Dual::<N>::c(0.0); MAX_FLOAT_SLOTS];
     for (s, &v) in a.f.iter().enumerate() {
         fp[s] = Dual::c(v);
     }
-    for (k, &s) in slot_lanes.iter().enumerate() {
-        if s != usize::MAX {
+    for (k, lane) in lanes.iter().enumerate() {
+        if let Lane::Slot(s) = *lane {
             fp[s].d[k] = 1.0;
         }
     }

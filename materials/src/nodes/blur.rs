@@ -9,27 +9,30 @@ use rayon::prelude::*;
 /// float sigma (fraction of the tile width).
 pub struct Blur;
 
-/// Normalised taps `k[j]`, j = 0..=2r, and their derivatives in sigma (texels); returns r.
-fn kernel(sigma: f64, k: &mut Vec<f64>, dk: &mut Vec<f64>) -> usize {
+/// Tap radius for sigma (texels): taps reach 3 sigma + 1.
+fn radius(sigma: f64) -> usize {
+    (3.0 * sigma.max(1e-3) + 1.0).ceil() as usize
+}
+
+/// Fills the normalised taps `k[j]`, j = 0..=2r, and their derivatives in sigma (texels).
+fn kernel(sigma: f64, k: &mut [f64], dk: &mut [f64]) {
     let sigma = sigma.max(1e-3);
     let reach = 3.0 * sigma + 1.0;
-    let r = reach.ceil() as usize;
-    k.clear();
-    dk.clear();
-    for j in 0..=2 * r {
-        let x = j as f64 - r as f64;
+    let r = (k.len() / 2) as f64;
+    for j in 0..k.len() {
+        let x = j as f64 - r;
         let t = x / reach;
         if t.abs() >= 1.0 {
-            k.push(0.0);
-            dk.push(0.0);
+            k[j] = 0.0;
+            dk[j] = 0.0;
             continue;
         }
         let g = (-x * x / (2.0 * sigma * sigma)).exp();
         let dg = g * x * x / (sigma * sigma * sigma);
         let win = (1.0 - t * t) * (1.0 - t * t);
         let dwin = 12.0 * t * x * (1.0 - t * t) / (reach * reach);
-        k.push(g * win);
-        dk.push(dg * win + g * dwin);
+        k[j] = g * win;
+        dk[j] = dg * win + g * dwin;
     }
     let w: f64 = k.iter().sum();
     let dw: f64 = dk.iter().sum();
@@ -37,7 +40,6 @@ fn kernel(sigma: f64, k: &mut Vec<f64>, dk: &mut Vec<f64>) -> usize {
         dk[j] = (dk[j] - k[j] * dw / w) / w;
         k[j] /= w;
     }
-    r
 }
 
 /// dst = src convolved with taps along x (horizontal) or y (vertical), wrapping.
@@ -110,9 +112,14 @@ fn dot_dconv(
     acc[..n].iter().sum()
 }
 
-fn split(scratch: &mut Vec<f64>, len: usize) -> (&mut [f64], &mut [f64]) {
-    scratch.resize(2 * len, 0.0);
-    scratch.split_at_mut(len)
+/// Scratch layout [taps | dtaps | image | image]; the Vec grows once and is reused.
+type Parts<'a> = (&'a mut [f64], &'a mut [f64], &'a mut [f64], &'a mut [f64]);
+fn split(scratch: &mut Vec<f64>, taps: usize, len: usize) -> Parts<'_> {
+    scratch.resize(2 * taps + 2 * len, 0.0);
+    let (k, rest) = scratch.split_at_mut(taps);
+    let (dk, rest) = rest.split_at_mut(taps);
+    let (a, b) = rest.split_at_mut(len);
+    (k, dk, a, b)
 }
 
 impl NodeOp for Blur {
@@ -125,11 +132,11 @@ impl NodeOp for Blur {
     ) {
         let src = ins[0].expect("blur input");
         let (n, c) = (a.size, src.channels);
-        let (mut k, mut dk) = (Vec::with_capacity(64), Vec::with_capacity(64));
-        let r = kernel(a.f[0] * n as f64, &mut k, &mut dk);
-        let (tmp, _) = split(scratch, n * n * c);
-        convolve(&src.data, tmp, n, c, &k, r, false);
-        convolve(tmp, &mut out.data, n, c, &k, r, true);
+        let r = radius(a.f[0] * n as f64);
+        let (k, dk, tmp, _) = split(scratch, 2 * r + 1, n * n * c);
+        kernel(a.f[0] * n as f64, k, dk);
+        convolve(&src.data, tmp, n, c, k, r, false);
+        convolve(tmp, &mut out.data, n, c, k, r, true);
     }
 
     fn backward(
@@ -142,19 +149,19 @@ impl NodeOp for Blur {
     ) {
         let src = ins[0].expect("blur input");
         let (n, c) = (a.size, src.channels);
-        let (mut k, mut dk) = (Vec::with_capacity(64), Vec::with_capacity(64));
-        let r = kernel(a.f[0] * n as f64, &mut k, &mut dk);
-        let (tmp, d_tmp) = split(cx.scratch, n * n * c);
-        convolve(&src.data, tmp, n, c, &k, r, false);
+        let r = radius(a.f[0] * n as f64);
+        let (k, dk, tmp, d_tmp) = split(cx.scratch, 2 * r + 1, n * n * c);
+        kernel(a.f[0] * n as f64, k, dk);
+        convolve(&src.data, tmp, n, c, k, r, false);
         // The windowed Gaussian is symmetric, so each pass is its own adjoint.
-        convolve(&d_out.data, d_tmp, n, c, &k, r, true);
+        convolve(&d_out.data, d_tmp, n, c, k, r, true);
         if cx.active[0] {
-            let s = dot_dconv(&d_out.data, tmp, n, c, &dk, r, true, cx.row_acc)
-                + dot_dconv(d_tmp, &src.data, n, c, &dk, r, false, cx.row_acc);
+            let s = dot_dconv(&d_out.data, tmp, n, c, dk, r, true, cx.row_acc)
+                + dot_dconv(d_tmp, &src.data, n, c, dk, r, false, cx.row_acc);
             cx.d_params[0] += s * n as f64;
         }
         if cx.need_in[0] {
-            convolve(d_tmp, &mut cx.d_ins[0].data, n, c, &k, r, false);
+            convolve(d_tmp, &mut cx.d_ins[0].data, n, c, k, r, false);
         }
     }
 }
