@@ -93,20 +93,30 @@ fn load_named(name: &str) -> Result<crate::graph::Graph, CliError> {
 }
 
 fn write_png(path: &Path, size: usize, data: Vec<u8>, rgb: bool) -> Result<(), CliError> {
-    let s = size as u32;
-    let res = if rgb {
-        image::RgbImage::from_raw(s, s, data)
-            .expect("buffer size")
-            .save(path)
-    } else {
-        image::GrayImage::from_raw(s, s, data)
-            .expect("buffer size")
-            .save(path)
-    };
-    res.map_err(|e| CliError::Io {
+    write_png_wh(path, size, size, &data, rgb)
+}
+
+fn write_png_wh(path: &Path, w: usize, h: usize, data: &[u8], rgb: bool) -> Result<(), CliError> {
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    use image::ImageEncoder;
+    let io_err = |msg: String| CliError::Io {
         path: path.to_path_buf(),
-        msg: e.to_string(),
-    })
+        msg,
+    };
+    let file = std::fs::File::create(path).map_err(|e| io_err(e.to_string()))?;
+    // Best compression keeps the committed thumbnails small.
+    let enc = PngEncoder::new_with_quality(
+        std::io::BufWriter::new(file),
+        CompressionType::Best,
+        FilterType::Adaptive,
+    );
+    let color = if rgb {
+        image::ExtendedColorType::Rgb8
+    } else {
+        image::ExtendedColorType::L8
+    };
+    enc.write_image(data, w as u32, h as u32, color)
+        .map_err(|e| io_err(e.to_string()))
 }
 
 /// Renders material `name` at `size` with `key=value` overrides into `out_dir`
@@ -194,11 +204,7 @@ pub fn sheet_with(out: &Path, swatch: usize) -> Result<String, CliError> {
         let tx = (k % cols) * cell_w + (cell_w - tw) / 2;
         font::draw_text(&mut buf, w, tx, y0 + sw + 4, 2, name, [230, 230, 230]);
     }
-    let img = image::RgbImage::from_raw(w as u32, h as u32, buf).expect("buffer size");
-    img.save(out).map_err(|e| CliError::Io {
-        path: out.to_path_buf(),
-        msg: e.to_string(),
-    })?;
+    write_png_wh(out, w, h, &buf, true)?;
     Ok(legend)
 }
 

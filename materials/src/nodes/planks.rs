@@ -32,15 +32,18 @@ fn shade<T: Real>(b: &Board<T>, f: &[T], seed: u64, mode: i64, grain_scale: i64)
         }
         1 => T::c(rnd(0)),
         _ => {
-            // Flat-sawn grain: rings across the board, bent by low-frequency noise,
-            // plus fine streaks along it; offsets per board so boards differ.
+            // Flat-sawn grain: thin dark late-wood lines across the board, bent by
+            // low-frequency noise (cathedrals), plus fine pores along it and a
+            // per-board tone; per-board offsets make boards differ.
             let gs = grain_scale.max(1) as f64;
             let a = b.along.v();
-            let warp = perlin_free(a * 0.35 + 17.0 * rnd(1), b.across * 1.5, seed ^ 0x51);
-            let phase = f[2] * warp + (b.across + 3.0 * rnd(2)) * gs * 0.25;
-            let rings = ((phase * std::f64::consts::TAU).sin() + 1.0) * 0.5;
-            let streak = perlin_free(a * 0.6 + 31.0 * rnd(3), b.across * gs * 2.0, seed ^ 0x77);
-            rings * 0.65 + (0.5 + 0.5 * streak) * 0.35
+            let warp = perlin_free(a * 0.25 + 17.0 * rnd(1), b.across * 1.2, seed ^ 0x51);
+            let phase = f[2] * (warp * 0.8) + (b.across + 3.0 * rnd(2)) * gs * 0.5;
+            let lines = ((phase * std::f64::consts::TAU).sin() * 0.5 + 0.5).powf(4.0);
+            let pores = perlin_free(a * 0.5 + 31.0 * rnd(3), b.across * gs * 1.5, seed ^ 0x77)
+                + 0.5 * perlin_free(a * 1.1 + 7.0 * rnd(3), b.across * gs * 3.0, seed ^ 0x78);
+            let tone = perlin_free(a * 0.15 + 5.0 * rnd(4), b.across * 0.5, seed ^ 0x79);
+            (lines * -0.45 + 0.78) + 0.12 * pores + 0.08 * tone
         }
     }
 }

@@ -16,9 +16,11 @@ impl Generator for WoodRings {
         octaves(u, v, ns, 2 * ns, seed, &mut n);
         let bend = n[0] + 0.5 * n[1] + 0.25 * n[2];
         let phase = (f[0] * (bend * 0.15) + v) * rings;
-        let ring = ((phase * std::f64::consts::TAU).cos() * 0.5 + 0.5).pow(f[1]);
-        let sp = 96;
-        let streak = 0.5 + 0.5 * perlin(u * 3.0, v * sp as f64, 3, sp, seed ^ 0x5EED);
+        // Light early wood with thin dark late-wood lines (narrower as sharpness grows).
+        let ring = T::c(1.0) - ((phase * std::f64::consts::TAU).cos() * 0.5 + 0.5).pow(f[1]);
+        let streak = 0.5
+            + 0.3 * perlin(u * 4.0, v * 48.0, 4, 48, seed ^ 0x5EED)
+            + 0.2 * perlin(u * 8.0, v * 112.0, 8, 112, seed ^ 0x5EEE);
         mix(ring, T::c(streak), f[2])
     }
 }
