@@ -1,4 +1,5 @@
-//! Differentiable procedural material graphs.
+#![doc = include_str!("../README.md")]
+
 pub mod cli;
 pub mod error;
 pub mod evaluator;

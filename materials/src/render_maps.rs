@@ -9,13 +9,13 @@ use rayon::prelude::*;
 #[derive(Clone, Debug)]
 pub struct RenderMaps {
     pub size: usize,
-    /// Linear RGB albedo, N*N*3 (sRGB base colour clamped to [0,1] and linearised).
+    /// Linear RGB albedo, N*N*3 (sRGB base colour clamped to 0..1 and linearised).
     pub albedo_linear: Vec<f32>,
-    /// Roughness in [0,1], N*N.
+    /// Roughness in 0..1, N*N.
     pub roughness: Vec<f32>,
     /// Unit tangent-space normals, N*N*3: +z out, x along +u, y along +v (up the image).
     pub normal: Vec<f32>,
-    /// Height in [0,1] when the graph exposes one, N*N.
+    /// Height in 0..1 when the graph exposes one, N*N.
     pub height: Option<Vec<f32>>,
 }
 

@@ -77,3 +77,18 @@ fn sheet_writes_a_labelled_grid_and_legend() {
     assert!(img.width() > 16 * 8);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn readme_documents_every_node_type_and_material() {
+    let readme = include_str!("../README.md");
+    for spec in psdr_materials::nodes::NODES {
+        assert!(
+            readme.contains(&format!("#### `{}`", spec.name)),
+            "README lacks node {}",
+            spec.name
+        );
+    }
+    for name in psdr_materials::library::names() {
+        assert!(readme.contains(name), "README lacks material {name}");
+    }
+}

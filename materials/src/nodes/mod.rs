@@ -107,7 +107,7 @@ pub static NODES: &[NodeSpec] = &[
     // ---- generators ----
     NodeSpec {
         name: "perlin",
-        doc: "Gradient (Perlin) noise in [0,1].",
+        doc: "Gradient (Perlin) noise in 0..1.",
         inputs: &[],
         slots: &[int("scale_x", 1, 256, 4, "cells across"), int("scale_y", 1, 256, 4, "cells down"), SEED],
         out: OutRule::Gray,
@@ -115,7 +115,7 @@ pub static NODES: &[NodeSpec] = &[
     },
     NodeSpec {
         name: "fbm",
-        doc: "Fractal Brownian motion (clouds) in about [0,1].",
+        doc: "Fractal Brownian motion (clouds) in about 0..1.",
         inputs: &[],
         slots: &[
             int("scale_x", 1, 256, 4, "base cells across"),
@@ -372,7 +372,7 @@ pub static NODES: &[NodeSpec] = &[
     },
     NodeSpec {
         name: "clamp",
-        doc: "Clamp to [min, max].",
+        doc: "Clamp to min..max.",
         inputs: ANY_IN,
         slots: &[float("min", 0.0, 1.0, 0.0, ""), float("max", 0.0, 1.0, 1.0, "")],
         out: OutRule::WidestInput,
@@ -428,4 +428,67 @@ pub static NODES: &[NodeSpec] = &[
 /// Looks up a node type by name.
 pub fn node_spec(name: &str) -> Option<&'static NodeSpec> {
     NODES.iter().find(|s| s.name == name)
+}
+
+/// A Markdown reference of every node type (inputs, parameters with ranges),
+/// as pasted into `materials/README.md`.
+pub fn reference_markdown() -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    for spec in NODES {
+        let _ = writeln!(s, "### `{}`\n{}\n", spec.name, spec.doc);
+        if !spec.inputs.is_empty() {
+            let ins: Vec<String> = spec
+                .inputs
+                .iter()
+                .map(|i| {
+                    let ch = match i.channels {
+                        Channels::Gray => "grey",
+                        Channels::Color => "colour",
+                        Channels::Any => "grey or colour",
+                    };
+                    format!(
+                        "`{}` ({ch}{})",
+                        i.name,
+                        if i.optional { ", optional" } else { "" }
+                    )
+                })
+                .collect();
+            let _ = writeln!(s, "Inputs: {}.\n", ins.join(", "));
+        }
+        if !spec.slots.is_empty() {
+            let _ = writeln!(
+                s,
+                "| parameter | kind | range | default | meaning |\n|---|---|---|---|---|"
+            );
+            for slot in spec.slots {
+                let (kind, range, default) = match slot.kind {
+                    SlotKind::Float { min, max, default } => {
+                        ("float", format!("{min} .. {max}"), format!("{default}"))
+                    }
+                    SlotKind::Color { default } => {
+                        ("color", "0 .. 1 each".into(), format!("{default:?}"))
+                    }
+                    SlotKind::Int {
+                        min,
+                        max,
+                        default,
+                        names: [],
+                    } => ("int", format!("{min} .. {max}"), format!("{default}")),
+                    SlotKind::Int { default, names, .. } => (
+                        "choice",
+                        names.join(" \\| "),
+                        names[default as usize].to_string(),
+                    ),
+                };
+                let _ = writeln!(
+                    s,
+                    "| `{}` | {kind} | {range} | {default} | {} |",
+                    slot.name, slot.doc
+                );
+            }
+            s.push('\n');
+        }
+    }
+    s
 }

@@ -70,7 +70,7 @@ impl Generator for Planks {
 }
 
 /// ints ratio (board length / width), repeat, seed, mode, grain_scale; floats gap, bevel, grain_warp.
-/// Horizontal boards [0,k]x[0,1] and vertical boards [k,k+1]x[1-k,1] on the lattice
+/// Horizontal boards [0,k]x0..1 and vertical boards [k,k+1]x[1-k,1] on the lattice
 /// spanned by (1,1) and (k,-k) (units of board width); the tile is 2k*repeat wide.
 pub struct Herringbone;
 impl Generator for Herringbone {
