@@ -1,0 +1,1 @@
+//! Shared helpers for benchmarks: CSV and SVG chart writers.

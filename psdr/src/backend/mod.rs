@@ -1,0 +1,51 @@
+//! One interface over the CPU reference and the Vulkan backend, so every stage runs on either.
+
+mod cpu_backend;
+
+pub use cpu_backend::CpuBackend;
+
+use crate::error::{Error, Result};
+use crate::render::{Frame, SceneData};
+use crate::scene::RenderSettings;
+
+/// Progress callback: (units done, units total).
+pub type Progress<'a> = &'a (dyn Fn(usize, usize) + Sync);
+
+pub trait Backend {
+    /// Human-readable name, including the device for GPU backends.
+    fn name(&self) -> String;
+    /// Renders radiance and all AOVs of `data` with `settings`.
+    fn render(&mut self, data: &SceneData, settings: &RenderSettings, progress: Progress) -> Result<Frame>;
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BackendKind {
+    Cpu,
+}
+
+impl std::str::FromStr for BackendKind {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "cpu" => Ok(BackendKind::Cpu),
+            _ => Err(format!("unknown backend '{s}' (cpu)")),
+        }
+    }
+}
+
+pub fn create_backend(kind: BackendKind) -> Result<Box<dyn Backend>> {
+    match kind {
+        BackendKind::Cpu => Ok(Box::new(CpuBackend)),
+    }
+}
+
+/// Checks the settings a backend is asked to render with.
+pub fn check_settings(s: &RenderSettings) -> Result<()> {
+    if s.spp == 0 {
+        return Err(Error::Invalid("spp must be at least 1".into()));
+    }
+    if s.max_depth == 0 {
+        return Err(Error::Invalid("max_depth must be at least 1".into()));
+    }
+    Ok(())
+}

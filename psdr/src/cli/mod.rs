@@ -1,0 +1,37 @@
+//! The `psdr` command line (clap). One file per subcommand.
+
+mod export_cmd;
+mod render_cmd;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "psdr", version, about = "Single photo to editable 3D room scene by path-space differentiable rendering")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene file to EXR/PNG with optional AOVs.
+    Render(render_cmd::RenderArgs),
+    /// Export a scene for another renderer.
+    Export(export_cmd::ExportArgs),
+}
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(a) => render_cmd::run(a),
+        Command::Export(a) => export_cmd::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

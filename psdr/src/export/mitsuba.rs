@@ -1,0 +1,173 @@
+//! Mitsuba 3 XML export: world-space PLY meshes, EXR textures, materials mapped to the closest Mitsuba
+//! BSDFs, area emitters, and a camera/film/integrator matching our render settings.
+//!
+//! Mapping (exact unless noted):
+//! - specular = 0, no normal map: `diffuse` (exact).
+//! - otherwise `roughplastic` (GGX, alpha = roughness^2, int_ior from specular, linear diffuse term) with the
+//!   diffuse reflectance scaled so that its normal-incidence diffuse response equals ours; Mitsuba's rough
+//!   transmittance table differs from our (1 - F(cos)) factors at grazing angles (approximate).
+//!   Textured roughness/specular use their mean (Mitsuba's roughplastic takes constants): approximate.
+//! - normal maps: `normalmap` BSDF (tangent frames may differ): approximate.
+//! - every BSDF is wrapped in `twosided` (ours shade both faces); two-sided emitters export one-sided (warned).
+//! - uv transforms are baked into the exported uvs; v is flipped to Mitsuba's top-left texture origin.
+
+use super::ply::write_ply;
+use crate::error::{Error, Result};
+use crate::output::write_exr_channels;
+use crate::render::bsdf::{fresnel_dielectric, specular_to_eta};
+use crate::scene::{Color, Material, Scalar, Scene, Texture};
+use glam::{Vec2, Vec3};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Hemispherical average 2 * int_0^1 F(mu) mu dmu of the dielectric Fresnel term (midpoint rule).
+pub fn fresnel_hemispherical_average(eta: f32) -> f32 {
+    let n = 2048;
+    let mut s = 0.0f64;
+    for i in 0..n {
+        let mu = (i as f64 + 0.5) / n as f64;
+        s += fresnel_dielectric(mu as f32, eta) as f64 * mu;
+    }
+    (2.0 * s / n as f64) as f32
+}
+
+fn texture_mean(t: &Texture) -> f32 {
+    let n = (t.width * t.height) as usize;
+    (0..n).map(|i| t.texels[i * t.channels as usize]).sum::<f32>() / n as f32
+}
+
+fn scalar_value(scene: &Scene, s: Scalar, warnings: &mut Vec<String>, what: &str) -> f32 {
+    match s {
+        Scalar::Constant(v) => v,
+        Scalar::Texture(t) => {
+            warnings.push(format!("{what}: textured value exported as its mean"));
+            texture_mean(&scene.textures[t])
+        }
+    }
+}
+
+fn rgb(v: Vec3) -> String {
+    format!("{:.6}, {:.6}, {:.6}", v.x, v.y, v.z)
+}
+
+/// Writes `dir/scene.xml` (+ meshes/ and textures/) and returns the XML path.
+pub fn export_mitsuba(scene: &Scene, dir: &Path) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir.join("meshes")).map_err(|e| Error::io(dir, e))?;
+    std::fs::create_dir_all(dir.join("textures")).map_err(|e| Error::io(dir, e))?;
+    let mut warnings = Vec::new();
+    let mut x = String::new();
+    let s = &scene.settings;
+    let c = &scene.camera;
+    let target = c.origin + c.forward;
+    writeln!(x, "<?xml version=\"1.0\"?>\n<!-- Exported by psdr from {} -->", scene.source.as_ref().map(|p| p.display().to_string()).unwrap_or_default()).unwrap();
+    writeln!(x, "<scene version=\"3.0.0\">").unwrap();
+    writeln!(x, "  <integrator type=\"path\">\n    <integer name=\"max_depth\" value=\"{}\"/>\n    <integer name=\"rr_depth\" value=\"{}\"/>\n  </integrator>", s.max_depth, s.rr_depth).unwrap();
+    writeln!(
+        x,
+        "  <sensor type=\"perspective\">\n    <string name=\"fov_axis\" value=\"y\"/>\n    <float name=\"fov\" value=\"{}\"/>\n    <transform name=\"to_world\">\n      <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n    </transform>\n    <sampler type=\"independent\">\n      <integer name=\"sample_count\" value=\"{}\"/>\n      <integer name=\"seed\" value=\"{}\"/>\n    </sampler>\n    <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      <integer name=\"height\" value=\"{}\"/>\n      <string name=\"pixel_format\" value=\"rgb\"/>\n      <rfilter type=\"box\"/>\n    </film>\n  </sensor>",
+        c.fov_y_deg, rgb(c.origin), rgb(target), rgb(c.up), s.spp, s.seed, c.width, c.height
+    )
+    .unwrap();
+    for (mi, m) in scene.materials.iter().enumerate() {
+        x += &material_xml(scene, mi, m, dir, &mut warnings)?;
+    }
+    for (oi, o) in scene.objects.iter().enumerate() {
+        let mat = o.pose.matrix();
+        let nm = o.pose.normal_matrix();
+        let flip = o.pose.is_mirroring();
+        if o.emitter.is_some_and(|e| e.two_sided) {
+            warnings.push(format!("object '{}': two-sided emitter exported one-sided", o.name));
+        }
+        for (pi, part) in o.parts.iter().enumerate() {
+            let m = &scene.materials[part.material];
+            let p: Vec<Vec3> = part.positions.iter().map(|&v| mat.transform_point3(v)).collect();
+            let n: Option<Vec<Vec3>> = part.normals.as_ref().map(|ns| ns.iter().map(|&v| (nm * v).normalize_or_zero()).collect());
+            let rows = m.uv_transform.rows();
+            let uv: Option<Vec<Vec2>> = part.uvs.as_ref().map(|uvs| {
+                uvs.iter()
+                    .map(|u| {
+                        let (a, b) = (rows[0][0] * u.x + rows[0][1] * u.y + rows[0][2], rows[1][0] * u.x + rows[1][1] * u.y + rows[1][2]);
+                        Vec2::new(a, 1.0 - b)
+                    })
+                    .collect()
+            });
+            let tris: Vec<[u32; 3]> = part.indices.iter().map(|t| if flip { [t[0], t[2], t[1]] } else { *t }).collect();
+            let file = format!("meshes/{oi:03}_{pi:02}.ply");
+            write_ply(&dir.join(&file), &p, n.as_deref(), uv.as_deref(), &tris)?;
+            writeln!(x, "  <shape type=\"ply\" id=\"{}\">\n    <string name=\"filename\" value=\"{file}\"/>", xml_id(&format!("{}_{}", o.name, part.name))).unwrap();
+            if n.is_none() {
+                writeln!(x, "    <boolean name=\"face_normals\" value=\"true\"/>").unwrap();
+            }
+            writeln!(x, "    <ref id=\"mat{}\"/>", part.material).unwrap();
+            if let Some(e) = o.emitter {
+                writeln!(x, "    <emitter type=\"area\">\n      <rgb name=\"radiance\" value=\"{}\"/>\n    </emitter>", rgb(e.radiance)).unwrap();
+            }
+            writeln!(x, "  </shape>").unwrap();
+        }
+    }
+    x += "</scene>\n";
+    for w in &warnings {
+        writeln!(x, "<!-- approximation: {} -->", w.replace("--", "-")).unwrap();
+    }
+    let path = dir.join("scene.xml");
+    crate::output::write_atomically(&path, |tmp| std::fs::write(tmp, &x).map_err(|e| Error::io(&path, e)))?;
+    for w in warnings {
+        eprintln!("warning: mitsuba export: {w}");
+    }
+    Ok(path)
+}
+
+fn xml_id(s: &str) -> String {
+    s.chars().map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '_' }).collect()
+}
+
+/// Writes texture `t` scaled by `k` as a linear EXR and returns its path relative to the export folder.
+fn export_texture(scene: &Scene, t: usize, k: f32, dir: &Path, tag: &str) -> Result<String> {
+    let tex = &scene.textures[t];
+    let file = format!("textures/tex{t}_{tag}.exr");
+    let ch = tex.channels as usize;
+    let names = if ch == 1 { vec!["Y"] } else { vec!["R", "G", "B"] };
+    let channels: Vec<(String, Vec<f32>)> = names
+        .iter()
+        .enumerate()
+        .map(|(c, n)| (n.to_string(), tex.texels.iter().skip(c).step_by(ch).map(|v| v * k).collect()))
+        .collect();
+    write_exr_channels(&dir.join(&file), tex.width, tex.height, &channels)?;
+    Ok(file)
+}
+
+fn color_xml(scene: &Scene, name: &str, c: Color, k: f32, dir: &Path, tag: &str) -> Result<String> {
+    Ok(match c {
+        Color::Constant(v) => format!("      <rgb name=\"{name}\" value=\"{}\"/>\n", rgb(v * k)),
+        Color::Texture(t) => {
+            let file = export_texture(scene, t, k, dir, tag)?;
+            format!("      <texture type=\"bitmap\" name=\"{name}\">\n        <string name=\"filename\" value=\"{file}\"/>\n        <boolean name=\"raw\" value=\"true\"/>\n      </texture>\n")
+        }
+    })
+}
+
+fn material_xml(scene: &Scene, mi: usize, m: &Material, dir: &Path, warnings: &mut Vec<String>) -> Result<String> {
+    let what = format!("material '{}'", m.name);
+    let specular = scalar_value(scene, m.specular, warnings, &format!("{what} specular"));
+    let mut inner = if specular <= 0.0 {
+        format!("    <bsdf type=\"diffuse\">\n{}    </bsdf>\n", color_xml(scene, "reflectance", m.albedo, 1.0, dir, "albedo")?)
+    } else {
+        let roughness = scalar_value(scene, m.roughness, warnings, &format!("{what} roughness"));
+        let eta = specular_to_eta(specular);
+        // Mitsuba's linear diffuse term is rho / (1 - F_int) / eta^2 * t_i t_o / pi; with
+        // eta^2 (1 - F_int) = 1 - F_avg (energy balance at the interface) ours is matched by this scale.
+        let k = 1.0 - fresnel_hemispherical_average(eta);
+        warnings.push(format!("{what}: specular layer exported as roughplastic (close, not identical at grazing angles)"));
+        format!(
+            "    <bsdf type=\"roughplastic\">\n      <string name=\"distribution\" value=\"ggx\"/>\n      <float name=\"alpha\" value=\"{:.6}\"/>\n      <float name=\"int_ior\" value=\"{eta:.6}\"/>\n      <float name=\"ext_ior\" value=\"1.0\"/>\n      <boolean name=\"nonlinear\" value=\"false\"/>\n{}    </bsdf>\n",
+            crate::render::bsdf::ggx_alpha(roughness),
+            color_xml(scene, "diffuse_reflectance", m.albedo, k, dir, "albedo")?
+        )
+    };
+    if let Some(t) = m.normal_map {
+        warnings.push(format!("{what}: normal map exported through Mitsuba's normalmap BSDF (tangent frames may differ)"));
+        let file = export_texture(scene, t, 1.0, dir, "normal")?;
+        inner = format!("    <bsdf type=\"normalmap\">\n      <texture type=\"bitmap\" name=\"normalmap\">\n        <string name=\"filename\" value=\"{file}\"/>\n        <boolean name=\"raw\" value=\"true\"/>\n      </texture>\n{}    </bsdf>\n", inner.replace("\n    ", "\n      ").replacen("    <bsdf", "      <bsdf", 1));
+    }
+    Ok(format!("  <bsdf type=\"twosided\" id=\"mat{mi}\">\n{inner}  </bsdf>\n"))
+}

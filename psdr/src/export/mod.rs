@@ -1,0 +1,4 @@
+//! Exports to other renderers.
+
+pub mod mitsuba;
+mod ply;

@@ -1,0 +1,15 @@
+//! psdr: single photo to editable 3D room scene by path-space differentiable rendering.
+//!
+//! Where things are: `scene` (the scene model and its JSON file), `render` (flattened buffers and the CPU
+//! twins of the GLSL kernels), `backend` (CPU and Vulkan behind one interface), `output` (EXR/PNG),
+//! `export` (Mitsuba 3), `cli` (the `psdr` binary's commands).
+
+pub mod backend;
+pub mod cli;
+pub mod error;
+pub mod export;
+pub mod output;
+pub mod render;
+pub mod scene;
+
+pub use error::{Error, Result};

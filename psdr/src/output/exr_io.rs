@@ -1,0 +1,45 @@
+//! Linear EXR files with arbitrary named f32 channels.
+
+use super::write_atomically;
+use crate::error::{Error, Result};
+use exr::prelude::*;
+use std::path::Path;
+
+/// Writes `channels` (name, row-major w*h values) as one layer.
+pub fn write_exr_channels(path: &Path, width: u32, height: u32, channels: &[(String, Vec<f32>)]) -> Result<()> {
+    let size = (width as usize, height as usize);
+    let list: Vec<AnyChannel<FlatSamples>> =
+        channels.iter().map(|(name, data)| AnyChannel::new(name.as_str(), FlatSamples::F32(data.clone()))).collect();
+    let layer = Layer::new(size, LayerAttributes::named("psdr"), Encoding::SMALL_LOSSLESS, AnyChannels::sort(SmallVec::from_vec(list)));
+    let image = Image::from_layer(layer);
+    write_atomically(path, |tmp| image.write().to_file(tmp).map_err(|e| Error::io(path, e)))
+}
+
+/// Reads every channel of the first layer as f32, with its name.
+pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Vec<(String, Vec<f32>)>)> {
+    let image = read_all_flat_layers_from_file(path).map_err(|e| Error::io(path, e))?;
+    let layer = image.layer_data.first().ok_or_else(|| Error::io(path, "EXR has no layers"))?;
+    let (w, h) = (layer.size.width() as u32, layer.size.height() as u32);
+    let channels = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+        .collect();
+    Ok((w, h, channels))
+}
+
+/// Reads an RGB(A) EXR as interleaved linear RGB.
+pub fn read_exr_rgb(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
+    let img = read_first_rgba_layer_from_file(
+        path,
+        |res, _| (res.width(), vec![0.0f32; res.width() * res.height() * 3]),
+        |(w, px): &mut (usize, Vec<f32>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            let i = (pos.y() * *w + pos.x()) * 3;
+            px[i..i + 3].copy_from_slice(&[r, g, b]);
+        },
+    )
+    .map_err(|e| Error::io(path, e))?;
+    let size = img.layer_data.size;
+    Ok((size.width() as u32, size.height() as u32, img.layer_data.channel_data.pixels.1))
+}

@@ -1,0 +1,18 @@
+//! Rendering: the flattened scene buffers and the primal kernels (CPU twins of shaders/*.glsl|comp).
+
+pub mod bsdf;
+pub mod bvh;
+pub mod camera;
+pub mod cpu;
+pub mod frame;
+pub mod layout;
+pub mod light;
+pub mod path_trace;
+pub mod sampler;
+pub mod scene_data;
+pub mod shading;
+pub mod texture;
+
+pub use cpu::render_cpu;
+pub use frame::Frame;
+pub use scene_data::SceneData;

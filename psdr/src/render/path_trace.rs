@@ -1,0 +1,143 @@
+//! The primal integrator: unidirectional path tracing with next-event estimation, MIS (power heuristic)
+//! and Russian roulette, plus the primary-hit AOVs. GLSL twin: shaders/path_trace.comp.
+
+use super::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample};
+use super::bvh::{trace_closest, trace_occluded};
+use super::camera::camera_ray;
+use super::layout::*;
+use super::light::{emitted_radiance, light_pdf_area, mis_power, sample_light};
+use super::sampler::*;
+use super::scene_data::SceneData;
+use super::shading::{offset_origin, surface_point};
+use glam::Vec3;
+
+/// What one camera path returns.
+pub struct PathSample {
+    pub radiance: Vec3,
+    /// Camera-space depth of the primary hit (0 on a miss).
+    pub depth: f32,
+    pub normal: Vec3,
+    pub albedo: Vec3,
+    /// Object of the primary hit, or NONE.
+    pub object: u32,
+    /// Rays traced (closest-hit and shadow).
+    pub rays: u32,
+}
+
+/// Traces sample `sample` of pixel (px, py).
+pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32) -> PathSample {
+    let cam = &d.camera;
+    let s = Sampler { seed: fp.seed, pixel: py * cam.width + px, sample };
+    let mut dir = camera_ray(cam, px as f32 + s.get(DIM_PIXEL_X), py as f32 + s.get(DIM_PIXEL_Y));
+    let mut origin = Vec3::from(cam.origin);
+    let mut out = PathSample { radiance: Vec3::ZERO, depth: 0.0, normal: Vec3::ZERO, albedo: Vec3::ZERO, object: NONE, rays: 0 };
+    let mut beta = Vec3::ONE;
+    let mut prev_bsdf_pdf = 0.0f32;
+    for depth in 0..fp.max_depth {
+        out.rays += 1;
+        let Some(hit) = trace_closest(&d.nodes, &d.triangles, origin, dir, f32::INFINITY) else {
+            break;
+        };
+        let sp = surface_point(d, hit.triangle, hit.u, hit.v, dir);
+        if depth == 0 {
+            out.depth = hit.t * dir.dot(Vec3::from(cam.forward));
+            out.normal = sp.ns;
+            out.albedo = sp.bsdf.albedo;
+            out.object = sp.object;
+        }
+        // Emission reached by the previous bounce (or seen directly), MIS-weighted against NEE.
+        let le = emitted_radiance(d, hit.triangle, sp.front);
+        if le != Vec3::ZERO {
+            if depth == 0 {
+                out.radiance += beta * le;
+            } else {
+                let cos_l = sp.ng.dot(-dir).abs();
+                let light_pdf = light_pdf_area(d, hit.triangle) * hit.t * hit.t / cos_l;
+                out.radiance += beta * le * mis_power(prev_bsdf_pdf, light_pdf);
+            }
+        }
+        if depth + 1 >= fp.max_depth {
+            break;
+        }
+        let wi = sp.to_local(-dir);
+        // Next-event estimation: one point on one light.
+        if fp.light_count > 0 {
+            let ls = sample_light(
+                d,
+                fp.light_count,
+                s.bounce(depth, DIM_LIGHT_SELECT),
+                s.bounce(depth, DIM_LIGHT_U),
+                s.bounce(depth, DIM_LIGHT_V),
+            );
+            let to_light = ls.p - sp.p;
+            let dist2 = to_light.dot(to_light);
+            let dist = dist2.sqrt();
+            let wl = to_light / dist;
+            let cos_l = if ls.two_sided { ls.n.dot(-wl).abs() } else { ls.n.dot(-wl) };
+            if cos_l > 0.0 && dist > 0.0 {
+                let f = bsdf_eval(&sp.bsdf, wi, sp.to_local(wl));
+                if f != Vec3::ZERO {
+                    let o = offset_origin(sp.p, sp.ng, wl);
+                    out.rays += 1;
+                    if !trace_occluded(&d.nodes, &d.triangles, o, wl, dist * (1.0 - 1e-4)) {
+                        let light_pdf = ls.pdf_area * dist2 / cos_l;
+                        let w = mis_power(light_pdf, bsdf_pdf(&sp.bsdf, wi, sp.to_local(wl)));
+                        out.radiance += beta * f * ls.radiance * (w / light_pdf);
+                    }
+                }
+            }
+        }
+        // Continue the path by sampling the BSDF.
+        let Some(bs) = bsdf_sample(&sp.bsdf, wi, s.bounce(depth, DIM_LOBE), s.bounce(depth, DIM_BSDF_U), s.bounce(depth, DIM_BSDF_V))
+        else {
+            break;
+        };
+        beta *= bs.weight;
+        prev_bsdf_pdf = bs.pdf;
+        dir = sp.to_world(bs.wo).normalize();
+        origin = offset_origin(sp.p, sp.ng, dir);
+        if depth + 1 >= fp.rr_depth {
+            let q = beta.max_element().min(0.95);
+            if !(s.bounce(depth, DIM_ROULETTE) < q) {
+                break;
+            }
+            beta /= q;
+        }
+    }
+    out
+}
+
+/// Per-pixel sums over the samples of one pass (one row of each output buffer).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PixelSums {
+    pub radiance: Vec3,
+    pub depth: f32,
+    pub normal: Vec3,
+    pub albedo: Vec3,
+    pub rays: u32,
+}
+
+/// The kernel body: accumulates samples [sample_begin, sample_begin + sample_count) of pixel (px, py)
+/// into `sums` and the pixel's coverage row `coverage[object]` (one entry per object).
+pub fn path_trace(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sums: &mut PixelSums, coverage: &mut [f32]) {
+    for sample in fp.sample_begin..fp.sample_begin + fp.sample_count {
+        let ps = trace_path(d, fp, px, py, sample);
+        sums.radiance += ps.radiance;
+        sums.depth += ps.depth;
+        sums.normal += ps.normal;
+        sums.albedo += ps.albedo;
+        sums.rays += ps.rays;
+        if ps.object != NONE {
+            coverage[ps.object as usize] += 1.0;
+        }
+    }
+}
+
+/// Object seen through the centre of pixel (px, py), or NONE (the id AOV: exact, not averaged).
+pub fn object_at_pixel_center(d: &SceneData, px: u32, py: u32) -> u32 {
+    let dir = camera_ray(&d.camera, px as f32 + 0.5, py as f32 + 0.5);
+    match trace_closest(&d.nodes, &d.triangles, Vec3::from(d.camera.origin), dir, f32::INFINITY) {
+        Some(h) => d.triangles[h.triangle as usize].object,
+        None => NONE,
+    }
+}

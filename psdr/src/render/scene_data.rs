@@ -1,0 +1,209 @@
+//! Flattens a `Scene` into the buffers both backends render from: world-space triangles ordered as the
+//! BVH leaves reference them, per-triangle shading data, materials, texels, emitters and the light
+//! distribution. Building this is the only place scene semantics turn into numbers.
+
+use super::layout::*;
+use crate::error::{Error, Result};
+use crate::scene::{Color, Scalar, Scene};
+use glam::Vec3;
+use obvhs::{aabb::Aabb, bvh2::builder::build_bvh2, BvhBuildParams};
+use std::time::Duration;
+
+#[derive(Clone, Debug, Default)]
+pub struct SceneData {
+    pub nodes: Vec<BvhNode>,
+    pub triangles: Vec<TriangleGeom>,
+    pub shading: Vec<TriangleShading>,
+    pub materials: Vec<MaterialGpu>,
+    pub textures: Vec<TextureGpu>,
+    pub texels: Vec<f32>,
+    pub emitters: Vec<EmitterGpu>,
+    pub lights: Vec<LightGpu>,
+    pub camera: CameraGpu,
+    pub object_count: u32,
+    /// Total emitted power proxy (sum of area x luminance) — zero means the scene is dark.
+    pub light_weight: f32,
+}
+
+/// Longest traversal stack the kernels allow (GLSL twin: BVH_STACK_SIZE in shaders/bvh.glsl).
+pub const BVH_STACK_SIZE: usize = 64;
+
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+impl SceneData {
+    pub fn build(scene: &Scene) -> Result<SceneData> {
+        crate::scene::validate::validate(scene).map_err(|(f, m)| Error::Invalid(format!("scene: {f}: {m}")))?;
+        let mut d = SceneData { object_count: scene.objects.len() as u32, ..Default::default() };
+        d.camera = camera(scene);
+        for m in &scene.materials {
+            d.materials.push(material(m));
+        }
+        for t in &scene.textures {
+            d.textures.push(TextureGpu { offset: d.texels.len() as u32, width: t.width, height: t.height, channels: t.channels });
+            d.texels.extend_from_slice(&t.texels);
+        }
+        if d.texels.is_empty() {
+            d.texels.push(0.0); // Vulkan cannot bind an empty buffer.
+        }
+        // Triangles in scene order; the BVH permutation is applied below.
+        let (mut tris, mut shading, mut light_weight_of) = (Vec::new(), Vec::new(), Vec::new());
+        for (oi, o) in scene.objects.iter().enumerate() {
+            let emitter = o.emitter.map(|e| {
+                d.emitters.push(EmitterGpu { radiance: e.radiance.to_array(), two_sided: e.two_sided as u32 });
+                (d.emitters.len() as u32 - 1, luminance(e.radiance) * if e.two_sided { 2.0 } else { 1.0 })
+            });
+            let m = o.pose.matrix();
+            let nm = o.pose.normal_matrix();
+            let flip = o.pose.is_mirroring();
+            for part in &o.parts {
+                let p: Vec<Vec3> = part.positions.iter().map(|&v| m.transform_point3(v)).collect();
+                let n: Option<Vec<Vec3>> = part.normals.as_ref().map(|ns| ns.iter().map(|&v| (nm * v).normalize_or_zero()).collect());
+                for t in &part.indices {
+                    let [a, b, c] = if flip { [t[0], t[2], t[1]] } else { *t }.map(|i| i as usize);
+                    let (v0, e1, e2) = (p[a], p[b] - p[a], p[c] - p[a]);
+                    tris.push(TriangleGeom {
+                        v0: v0.to_array(),
+                        material: part.material as u32,
+                        e1: e1.to_array(),
+                        object: oi as u32,
+                        e2: e2.to_array(),
+                        light: NONE,
+                    });
+                    let mut s = TriangleShading { emitter: emitter.map_or(NONE, |e| e.0), ..Default::default() };
+                    if let Some(n) = &n {
+                        s.flags |= SHADING_HAS_NORMALS;
+                        (s.n0, s.n1, s.n2) = (n[a].to_array(), n[b].to_array(), n[c].to_array());
+                    }
+                    if let Some(uv) = &part.uvs {
+                        s.flags |= SHADING_HAS_UVS;
+                        (s.uv0, s.uv1, s.uv2) = (uv[a].to_array(), uv[b].to_array(), uv[c].to_array());
+                    }
+                    shading.push(s);
+                    let area = 0.5 * e1.cross(e2).length();
+                    light_weight_of.push(emitter.map_or(0.0, |e| e.1 * area));
+                }
+            }
+        }
+        // BVH over triangle bounds; degenerate triangles stay in (they can never be hit).
+        let aabbs: Vec<Aabb> = tris
+            .iter()
+            .map(|t| {
+                let v0 = Vec3::from(t.v0);
+                let (v1, v2) = (v0 + Vec3::from(t.e1), v0 + Vec3::from(t.e2));
+                Aabb::new(v0.min(v1).min(v2).into(), v0.max(v1).max(v2).into())
+            })
+            .collect();
+        if !aabbs.is_empty() {
+            let bvh = build_bvh2(&aabbs, BvhBuildParams::medium_build(), &mut Duration::default());
+            if bvh.max_depth + 2 > BVH_STACK_SIZE {
+                return Err(Error::Invalid(format!(
+                    "scene: BVH depth {} exceeds the traversal stack ({BVH_STACK_SIZE})",
+                    bvh.max_depth
+                )));
+            }
+            // Reorder triangles so leaves index them directly (no indirection in the kernels).
+            let order = &bvh.primitive_indices;
+            d.triangles = order.iter().map(|&i| tris[i as usize]).collect();
+            d.shading = order.iter().map(|&i| shading[i as usize]).collect();
+            light_weight_of = order.iter().map(|&i| light_weight_of[i as usize]).collect();
+            d.nodes = bvh.nodes;
+        }
+        // Light distribution: emitting triangles chosen proportionally to area x luminance.
+        let total: f64 = light_weight_of.iter().map(|&w| w as f64).sum();
+        d.light_weight = total as f32;
+        if total > 0.0 {
+            let mut acc = 0.0f64;
+            for (ti, &w) in light_weight_of.iter().enumerate() {
+                if w > 0.0 {
+                    acc += w as f64;
+                    d.triangles[ti].light = d.lights.len() as u32;
+                    d.lights.push(LightGpu {
+                        triangle: ti as u32,
+                        emitter: d.shading[ti].emitter,
+                        cdf: (acc / total) as f32,
+                        pmf: (w as f64 / total) as f32,
+                    });
+                }
+            }
+            d.lights.last_mut().unwrap().cdf = 1.0;
+        }
+        // Never hand an empty buffer to Vulkan.
+        if d.nodes.is_empty() {
+            // A leaf holding one degenerate triangle: traversal works unchanged and never reports a hit.
+            d.nodes.push(BvhNode { min: Vec3::ZERO, max: Vec3::ZERO, prim_count: 1, first_index: 0 });
+        }
+        for v in [&mut d.triangles] {
+            if v.is_empty() {
+                v.push(TriangleGeom::default());
+            }
+        }
+        if d.shading.is_empty() {
+            d.shading.push(TriangleShading::default());
+        }
+        if d.materials.is_empty() {
+            d.materials.push(MaterialGpu::default());
+        }
+        if d.textures.is_empty() {
+            d.textures.push(TextureGpu::default());
+        }
+        if d.emitters.is_empty() {
+            d.emitters.push(EmitterGpu::default());
+        }
+        if d.lights.is_empty() {
+            d.lights.push(LightGpu { triangle: NONE, emitter: NONE, cdf: 1.0, pmf: 0.0 });
+        }
+        Ok(d)
+    }
+
+    /// Number of real lights (the buffer holds one dummy when there are none).
+    pub fn light_count(&self) -> u32 {
+        if self.lights[0].triangle == NONE { 0 } else { self.lights.len() as u32 }
+    }
+
+    /// True when the BVH is the empty-scene placeholder.
+    pub fn is_empty(&self) -> bool {
+        self.triangles.len() == 1 && self.triangles[0] == TriangleGeom::default()
+    }
+}
+
+fn camera(scene: &Scene) -> CameraGpu {
+    let c = &scene.camera;
+    CameraGpu {
+        origin: c.origin.to_array(),
+        tan_half_fov: c.tan_half_fov(),
+        forward: c.forward.to_array(),
+        aspect: c.aspect(),
+        right: c.right().to_array(),
+        width: c.width,
+        up: c.up.to_array(),
+        height: c.height,
+    }
+}
+
+fn material(m: &crate::scene::Material) -> MaterialGpu {
+    let (albedo, albedo_tex) = match m.albedo {
+        Color::Constant(c) => (c.to_array(), NONE),
+        Color::Texture(t) => ([1.0; 3], t as u32),
+    };
+    let scalar = |s: Scalar| match s {
+        Scalar::Constant(v) => (v, NONE),
+        Scalar::Texture(t) => (1.0, t as u32),
+    };
+    let (roughness, roughness_tex) = scalar(m.roughness);
+    let (specular, specular_tex) = scalar(m.specular);
+    let [r0, r1] = m.uv_transform.rows();
+    MaterialGpu {
+        albedo,
+        albedo_tex,
+        roughness,
+        roughness_tex,
+        specular,
+        specular_tex,
+        normal_tex: m.normal_map.map_or(NONE, |t| t as u32),
+        _pad: [0; 3],
+        uv_row0: [r0[0], r0[1], r0[2], 0.0],
+        uv_row1: [r1[0], r1[1], r1[2], 0.0],
+    }
+}

@@ -1,0 +1,157 @@
+//! From a ray hit to everything shading needs: position, normals (two-sided, normal-mapped), uv and the
+//! material's parameters at that point. GLSL twin: shaders/shading.glsl.
+
+use super::bsdf::BsdfParams;
+use super::layout::*;
+use super::scene_data::SceneData;
+use super::texture::{texture_sample, texture_sample_rgb};
+use glam::{Vec2, Vec3};
+
+pub struct SurfacePoint {
+    pub p: Vec3,
+    /// Unit geometric normal, flipped to the side of the incoming ray.
+    pub ng: Vec3,
+    /// Unit shading normal (normal-mapped), same side as `ng`.
+    pub ns: Vec3,
+    /// Tangent frame with `ns`.
+    pub tangent: Vec3,
+    pub bitangent: Vec3,
+    /// True when the ray hit the side the triangle's winding faces (used by one-sided emitters).
+    pub front: bool,
+    pub bsdf: BsdfParams,
+    pub object: u32,
+    pub triangle: u32,
+}
+
+impl SurfacePoint {
+    #[inline(always)]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.tangent), v.dot(self.bitangent), v.dot(self.ns))
+    }
+    #[inline(always)]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.tangent * v.x + self.bitangent * v.y + self.ns * v.z
+    }
+}
+
+/// Any unit vector orthogonal to n (Duff et al. 2017 branchless basis).
+#[inline(always)]
+pub fn orthogonal(n: Vec3) -> Vec3 {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x)
+}
+
+#[inline(always)]
+pub fn apply_uv_transform(m: &MaterialGpu, uv: Vec2) -> Vec2 {
+    Vec2::new(
+        m.uv_row0[0] * uv.x + m.uv_row0[1] * uv.y + m.uv_row0[2],
+        m.uv_row1[0] * uv.x + m.uv_row1[1] * uv.y + m.uv_row1[2],
+    )
+}
+
+/// Builds the surface point for a hit at barycentrics (u, v) of triangle `ti`, seen along `dir`.
+#[inline(always)]
+pub fn surface_point(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> SurfacePoint {
+    let tri = &d.triangles[ti as usize];
+    let sh = &d.shading[ti as usize];
+    let mat = &d.materials[tri.material as usize];
+    let e1 = Vec3::from(tri.e1);
+    let e2 = Vec3::from(tri.e2);
+    let p = Vec3::from(tri.v0) + e1 * u + e2 * v;
+    let mut ng = e1.cross(e2).normalize();
+    let w = 1.0 - u - v;
+    let mut ns = if sh.flags & SHADING_HAS_NORMALS != 0 {
+        let n = Vec3::from(sh.n0) * w + Vec3::from(sh.n1) * u + Vec3::from(sh.n2) * v;
+        let len = n.length();
+        if len > 0.0 { n / len } else { ng }
+    } else {
+        ng
+    };
+    let front = ng.dot(dir) < 0.0;
+    if !front {
+        ng = -ng;
+    }
+    if ns.dot(ng) < 0.0 {
+        ns = -ns;
+    }
+    let uv0 = Vec2::from(sh.uv0);
+    let uv1 = Vec2::from(sh.uv1);
+    let uv2 = Vec2::from(sh.uv2);
+    let uv = if sh.flags & SHADING_HAS_UVS != 0 { uv0 * w + uv1 * u + uv2 * v } else { Vec2::new(u, v) };
+    let uvt = apply_uv_transform(mat, uv);
+    // Tangent along dp/du' of the transformed uv, so normal maps follow texture rotation.
+    let duv1 = apply_uv_transform(mat, uv1) - apply_uv_transform(mat, uv0);
+    let duv2 = apply_uv_transform(mat, uv2) - apply_uv_transform(mat, uv0);
+    let det = duv1.x * duv2.y - duv1.y * duv2.x;
+    let mut tangent = if det != 0.0 && sh.flags & SHADING_HAS_UVS != 0 {
+        (e1 * duv2.y - e2 * duv1.y) * (1.0 / det)
+    } else {
+        orthogonal(ns)
+    };
+    tangent = tangent - ns * ns.dot(tangent);
+    let tl = tangent.length();
+    tangent = if tl > 1e-12 { tangent / tl } else { orthogonal(ns) };
+    let mut bitangent = ns.cross(tangent);
+    if det != 0.0 && sh.flags & SHADING_HAS_UVS != 0 {
+        let dpdv = (e2 * duv1.x - e1 * duv2.x) * (1.0 / det);
+        if bitangent.dot(dpdv) < 0.0 {
+            bitangent = -bitangent;
+        }
+    }
+    if mat.normal_tex != NONE {
+        let t = &d.textures[mat.normal_tex as usize];
+        let m = texture_sample_rgb(&d.texels, t, uvt) * 2.0 - Vec3::ONE;
+        let n = tangent * m.x + bitangent * m.y + ns * m.z;
+        let len = n.length();
+        if len > 0.0 && n.dot(ng) > 0.0 {
+            ns = n / len;
+            tangent = tangent - ns * ns.dot(tangent);
+            let tl = tangent.length();
+            tangent = if tl > 1e-12 { tangent / tl } else { orthogonal(ns) };
+            let flip = bitangent.dot(ns.cross(tangent)) < 0.0;
+            bitangent = ns.cross(tangent);
+            if flip {
+                bitangent = -bitangent;
+            }
+        }
+    }
+    let albedo = if mat.albedo_tex != NONE {
+        texture_sample_rgb(&d.texels, &d.textures[mat.albedo_tex as usize], uvt)
+    } else {
+        Vec3::from(mat.albedo)
+    };
+    let roughness = if mat.roughness_tex != NONE {
+        texture_sample(&d.texels, &d.textures[mat.roughness_tex as usize], uvt, 0)
+    } else {
+        mat.roughness
+    };
+    let specular = if mat.specular_tex != NONE {
+        texture_sample(&d.texels, &d.textures[mat.specular_tex as usize], uvt, 0)
+    } else {
+        mat.specular
+    };
+    SurfacePoint {
+        p,
+        ng,
+        ns,
+        tangent,
+        bitangent,
+        front,
+        bsdf: BsdfParams {
+            albedo: albedo.clamp(Vec3::ZERO, Vec3::ONE),
+            roughness: roughness.clamp(0.0, 1.0),
+            specular: specular.clamp(0.0, 1.0),
+        },
+        object: tri.object,
+        triangle: ti,
+    }
+}
+
+/// Ray origin offset off the surface to avoid self-intersection, scaled with the coordinates' magnitude.
+#[inline(always)]
+pub fn offset_origin(p: Vec3, ng: Vec3, toward: Vec3) -> Vec3 {
+    let eps = 2e-5 * (1.0 + p.abs().max_element());
+    if ng.dot(toward) >= 0.0 { p + ng * eps } else { p - ng * eps }
+}

@@ -1,0 +1,65 @@
+//! The in-memory scene: camera, objects (mesh parts + pose), materials, textures, emitters, render settings.
+//! Every stage reads and writes one `Scene`; `file` is its JSON form, `load` turns one into the other.
+
+mod camera;
+pub mod file;
+mod load;
+mod material;
+mod mesh;
+mod obj;
+mod pose;
+mod primitives;
+pub mod validate;
+mod texture;
+
+pub use camera::Camera;
+pub use load::load_scene;
+pub use material::{Material, Scalar, Color, UvTransform};
+pub use mesh::{MeshPart, Object, Emitter};
+pub use pose::Pose;
+pub use primitives::{box_mesh, rectangle_mesh, sphere_mesh};
+
+pub use texture::{linear_to_srgb as texture_linear_to_srgb, srgb_to_linear, Texture, TextureEncoding};
+
+use std::path::PathBuf;
+
+/// Sampling settings of a render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub spp: u32,
+    /// Longest path in vertices after the camera (Mitsuba's convention: 1 = emitters seen directly,
+    /// 2 = direct lighting, ...).
+    pub max_depth: u32,
+    /// Depth at which Russian roulette starts.
+    pub rr_depth: u32,
+    pub seed: u32,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings { spp: 16, max_depth: 5, rr_depth: 3, seed: 0 }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub camera: Camera,
+    pub settings: RenderSettings,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub objects: Vec<Object>,
+    /// The file this scene came from, if any (relative asset paths of exports resolve against it).
+    pub source: Option<PathBuf>,
+}
+
+impl Scene {
+    pub fn object_index(&self, name: &str) -> Option<usize> {
+        self.objects.iter().position(|o| o.name == name)
+    }
+    pub fn material_index(&self, name: &str) -> Option<usize> {
+        self.materials.iter().position(|m| m.name == name)
+    }
+    pub fn triangle_count(&self) -> usize {
+        self.objects.iter().flat_map(|o| &o.parts).map(|p| p.indices.len()).sum()
+    }
+}
