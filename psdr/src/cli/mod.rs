@@ -1,6 +1,7 @@
 //! The `psdr` command line (clap). One file per subcommand.
 
 mod export_cmd;
+mod materials_cmd;
 mod render_cmd;
 
 use clap::{Parser, Subcommand};
@@ -19,6 +20,8 @@ enum Command {
     Render(render_cmd::RenderArgs),
     /// Export a scene for another renderer.
     Export(export_cmd::ExportArgs),
+    /// The procedural material library: list, render maps, contact sheet.
+    Materials(materials_cmd::MaterialsArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -26,6 +29,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(a) => render_cmd::run(a),
         Command::Export(a) => export_cmd::run(a),
+        Command::Materials(a) => materials_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -97,10 +97,10 @@ impl SceneData {
             .collect();
         if !aabbs.is_empty() {
             let bvh = build_bvh2(&aabbs, BvhBuildParams::medium_build(), &mut Duration::default());
-            if bvh.max_depth + 2 > BVH_STACK_SIZE {
+            let depth = tree_depth(&bvh.nodes);
+            if depth + 2 > BVH_STACK_SIZE {
                 return Err(Error::Invalid(format!(
-                    "scene: BVH depth {} exceeds the traversal stack ({BVH_STACK_SIZE})",
-                    bvh.max_depth
+                    "scene: BVH depth {depth} exceeds the traversal stack ({BVH_STACK_SIZE})"
                 )));
             }
             // Reorder triangles so leaves index them directly (no indirection in the kernels).
@@ -206,4 +206,20 @@ fn material(m: &crate::scene::Material) -> MaterialGpu {
         uv_row0: [r0[0], r0[1], r0[2], 0.0],
         uv_row1: [r1[0], r1[1], r1[2], 0.0],
     }
+}
+
+/// Depth of the tree (root = 1); traversal pushes at most one sibling per level, so the stack needs `depth`.
+fn tree_depth(nodes: &[obvhs::bvh2::node::Bvh2Node]) -> usize {
+    let mut deepest = 0;
+    let mut stack = vec![(0usize, 1usize)];
+    while let Some((i, depth)) = stack.pop() {
+        deepest = deepest.max(depth);
+        let n = &nodes[i];
+        if n.prim_count == 0 {
+            let first = n.first_index as usize;
+            stack.push((first, depth + 1));
+            stack.push((first + 1, depth + 1));
+        }
+    }
+    deepest
 }
