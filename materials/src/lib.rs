@@ -15,9 +15,11 @@ pub mod nodes;
 pub mod noise;
 pub mod real;
 pub mod render_maps;
+pub mod texture_transform;
 
 pub use error::{GraphError, ParamError};
 pub use evaluator::{Evaluator, MapKind};
 pub use graph::{Graph, ParamInfo, ParamKind, Params};
 pub use image::Image;
 pub use render_maps::{RenderGrads, RenderMaps};
+pub use texture_transform::{TextureTransform, TextureView, TransformGrad};
