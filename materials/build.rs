@@ -7,9 +7,7 @@ fn main() {
     println!("cargo:rerun-if-changed={}", dir.display());
     let mut files: Vec<_> = fs::read_dir(&dir)
         .map(|rd| {
-            rd.filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.extension().is_some_and(|x| x == "json"))
-                .collect()
+            rd.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|x| x == "json")).collect()
         })
         .unwrap_or_default();
     files.sort();
@@ -17,15 +15,8 @@ fn main() {
     for p in &files {
         println!("cargo:rerun-if-changed={}", p.display());
         let stem = p.file_stem().unwrap().to_string_lossy();
-        code += &format!(
-            "    ({stem:?}, include_str!({:?})),\n",
-            p.display().to_string()
-        );
+        code += &format!("    ({stem:?}, include_str!({:?})),\n", p.display().to_string());
     }
     code += "];\n";
-    fs::write(
-        Path::new(&env::var("OUT_DIR").unwrap()).join("library_files.rs"),
-        code,
-    )
-    .unwrap();
+    fs::write(Path::new(&env::var("OUT_DIR").unwrap()).join("library_files.rs"), code).unwrap();
 }

@@ -22,10 +22,7 @@ fn main() {
     }
 
     let mut failures = Vec::new();
-    for path in shaders
-        .iter()
-        .filter(|p| p.extension().is_some_and(|e| e == "comp"))
-    {
+    for path in shaders.iter().filter(|p| p.extension().is_some_and(|e| e == "comp")) {
         let stem = path.file_stem().expect("file name").to_string_lossy();
         let spv = out_dir.join(format!("{stem}.spv"));
         let output = Command::new(&compiler)

@@ -48,19 +48,8 @@ pub fn list() -> Result<Vec<MaterialSummary>, CliError> {
                 .params
                 .iter()
                 .map(|p| {
-                    let fmt = |v: &[f64]| {
-                        v.iter()
-                            .map(|x| format!("{x}"))
-                            .collect::<Vec<_>>()
-                            .join(",")
-                    };
-                    format!(
-                        "{}={} [{}, {}]",
-                        p.name,
-                        fmt(&p.default),
-                        fmt(&p.min),
-                        fmt(&p.max)
-                    )
+                    let fmt = |v: &[f64]| v.iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(",");
+                    format!("{}={} [{}, {}]", p.name, fmt(&p.default), fmt(&p.min), fmt(&p.max))
                 })
                 .collect();
             Ok(MaterialSummary {
@@ -85,10 +74,7 @@ pub fn list_text() -> Result<String, CliError> {
 fn load_named(name: &str) -> Result<crate::graph::Graph, CliError> {
     match library::load(name) {
         Some(g) => Ok(g?),
-        None => Err(CliError::UnknownMaterial {
-            name: name.to_string(),
-            known: library::names().join(", "),
-        }),
+        None => Err(CliError::UnknownMaterial { name: name.to_string(), known: library::names().join(", ") }),
     }
 }
 
@@ -99,36 +85,19 @@ fn write_png(path: &Path, size: usize, data: Vec<u8>, rgb: bool) -> Result<(), C
 fn write_png_wh(path: &Path, w: usize, h: usize, data: &[u8], rgb: bool) -> Result<(), CliError> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     use image::ImageEncoder;
-    let io_err = |msg: String| CliError::Io {
-        path: path.to_path_buf(),
-        msg,
-    };
+    let io_err = |msg: String| CliError::Io { path: path.to_path_buf(), msg };
     let file = std::fs::File::create(path).map_err(|e| io_err(e.to_string()))?;
     // Best compression keeps the committed thumbnails small.
-    let enc = PngEncoder::new_with_quality(
-        std::io::BufWriter::new(file),
-        CompressionType::Best,
-        FilterType::Adaptive,
-    );
-    let color = if rgb {
-        image::ExtendedColorType::Rgb8
-    } else {
-        image::ExtendedColorType::L8
-    };
-    enc.write_image(data, w as u32, h as u32, color)
-        .map_err(|e| io_err(e.to_string()))
+    let enc = PngEncoder::new_with_quality(std::io::BufWriter::new(file), CompressionType::Best, FilterType::Adaptive);
+    let color = if rgb { image::ExtendedColorType::Rgb8 } else { image::ExtendedColorType::L8 };
+    enc.write_image(data, w as u32, h as u32, color).map_err(|e| io_err(e.to_string()))
 }
 
 /// Renders material `name` at `size` with `key=value` overrides into `out_dir`
 /// (created if needed) as base_color.png (sRGB), roughness.png, normal.png
 /// (0.5 + 0.5 n, OpenGL), height.png (16-bit, when the graph has a height) and
 /// preview.png (lit). Returns the written paths.
-pub fn render(
-    name: &str,
-    out_dir: &Path,
-    size: usize,
-    overrides: &[String],
-) -> Result<Vec<PathBuf>, CliError> {
+pub fn render(name: &str, out_dir: &Path, size: usize, overrides: &[String]) -> Result<Vec<PathBuf>, CliError> {
     if !(4..=8192).contains(&size) {
         return Err(CliError::Size(size));
     }
@@ -137,10 +106,7 @@ pub fn render(
     for o in overrides {
         graph.apply_override(&mut params, o)?;
     }
-    std::fs::create_dir_all(out_dir).map_err(|e| CliError::Io {
-        path: out_dir.to_path_buf(),
-        msg: e.to_string(),
-    })?;
+    std::fs::create_dir_all(out_dir).map_err(|e| CliError::Io { path: out_dir.to_path_buf(), msg: e.to_string() })?;
     let mut ev = Evaluator::new(graph, size);
     ev.forward(&params);
     let mut written = vec![];
@@ -156,12 +122,9 @@ pub fn render(
     put("preview.png", export::preview_rgb8(&ev), true)?;
     if let Some(h) = export::height_gray16(&ev) {
         let p = out_dir.join("height.png");
-        let img = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(size as u32, size as u32, h)
-            .expect("buffer size");
-        img.save(&p).map_err(|e| CliError::Io {
-            path: p.clone(),
-            msg: e.to_string(),
-        })?;
+        let img =
+            image::ImageBuffer::<image::Luma<u16>, _>::from_raw(size as u32, size as u32, h).expect("buffer size");
+        img.save(&p).map_err(|e| CliError::Io { path: p.clone(), msg: e.to_string() })?;
         written.push(p);
     }
     Ok(written)
@@ -210,10 +173,7 @@ pub fn sheet_with(out: &Path, swatch: usize) -> Result<String, CliError> {
 
 /// Writes a `SHEET_SWATCH`-pixel lit thumbnail of every library material to `dir/NAME.png`.
 pub fn thumbnails(dir: &Path, size: usize) -> Result<Vec<PathBuf>, CliError> {
-    std::fs::create_dir_all(dir).map_err(|e| CliError::Io {
-        path: dir.to_path_buf(),
-        msg: e.to_string(),
-    })?;
+    std::fs::create_dir_all(dir).map_err(|e| CliError::Io { path: dir.to_path_buf(), msg: e.to_string() })?;
     let mut out = vec![];
     for name in library::names() {
         let graph = load_named(name)?;

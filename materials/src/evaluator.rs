@@ -49,16 +49,8 @@ impl Evaluator {
         let mut active = Vec::with_capacity(nodes.len());
         let mut need_in = Vec::with_capacity(nodes.len());
         for (k, n) in nodes.iter().enumerate() {
-            let a: Vec<bool> = n
-                .floats
-                .iter()
-                .map(|b| matches!(b, FloatBinding::Param(_)))
-                .collect();
-            let ni: Vec<bool> = n
-                .inputs
-                .iter()
-                .map(|i| i.is_some_and(|s| need_grad[s]))
-                .collect();
+            let a: Vec<bool> = n.floats.iter().map(|b| matches!(b, FloatBinding::Param(_))).collect();
+            let ni: Vec<bool> = n.inputs.iter().map(|i| i.is_some_and(|s| need_grad[s])).collect();
             need_grad[k] = a.iter().any(|&x| x) || ni.iter().any(|&x| x);
             active.push(a);
             need_in.push(ni);
@@ -67,13 +59,7 @@ impl Evaluator {
         let grads = nodes
             .iter()
             .enumerate()
-            .map(|(k, n)| {
-                if need_grad[k] {
-                    Image::new(size, n.channels)
-                } else {
-                    Image::default()
-                }
-            })
+            .map(|(k, n)| if need_grad[k] { Image::new(size, n.channels) } else { Image::default() })
             .collect();
         let local_d_ins = nodes
             .iter()
@@ -125,11 +111,7 @@ impl Evaluator {
 
     /// Evaluates every node of the graph (no output conversion).
     pub fn evaluate(&mut self, params: &Params) {
-        assert_eq!(
-            params.floats.len(),
-            self.graph.n_floats,
-            "float parameter count"
-        );
+        assert_eq!(params.floats.len(), self.graph.n_floats, "float parameter count");
         assert_eq!(params.ints.len(), self.graph.n_ints, "int parameter count");
         for (k, n) in self.graph.nodes.iter().enumerate() {
             for (v, b) in self.fvals[k].iter_mut().zip(&n.floats) {
@@ -149,18 +131,8 @@ impl Evaluator {
             for (j, i) in n.inputs.iter().enumerate() {
                 ins[j] = i.map(|s| &done[s]);
             }
-            let args = NodeArgs {
-                size: self.size,
-                f: &self.fvals[k],
-                i: &self.ivals[k],
-                out_channels: n.channels,
-            };
-            n.spec.op.forward(
-                &args,
-                &ins[..n.inputs.len()],
-                &mut rest[0],
-                &mut self.scratch[k],
-            );
+            let args = NodeArgs { size: self.size, f: &self.fvals[k], i: &self.ivals[k], out_channels: n.channels };
+            n.spec.op.forward(&args, &ins[..n.inputs.len()], &mut rest[0], &mut self.scratch[k]);
         }
         self.evaluated = true;
     }
@@ -233,12 +205,7 @@ impl Evaluator {
     /// Panics if there is no such node (a test and tooling entry point).
     pub fn backward_node(&mut self, id: &str, d_out: &[f64], grad: &mut [f64]) {
         assert!(self.evaluated, "backward before forward");
-        let k = self
-            .graph
-            .nodes
-            .iter()
-            .position(|n| n.id == id)
-            .expect("unknown node id");
+        let k = self.graph.nodes.iter().position(|n| n.id == id).expect("unknown node id");
         self.clear_grads();
         if self.need_grad[k] {
             self.grads[k].data.copy_from_slice(d_out);
@@ -271,12 +238,7 @@ impl Evaluator {
             for (j, i) in n.inputs.iter().enumerate() {
                 ins[j] = i.map(|s| &self.images[s]);
             }
-            let args = NodeArgs {
-                size: self.size,
-                f: &self.fvals[k],
-                i: &self.ivals[k],
-                out_channels: n.channels,
-            };
+            let args = NodeArgs { size: self.size, f: &self.fvals[k], i: &self.ivals[k], out_channels: n.channels };
             n.spec.op.backward(
                 &args,
                 &ins[..n.inputs.len()],
@@ -299,11 +261,7 @@ impl Evaluator {
             for (j, i) in n.inputs.iter().enumerate() {
                 if let (Some(src), true) = (*i, self.need_in[k][j]) {
                     let local = &self.local_d_ins[k][j].data;
-                    self.grads[src]
-                        .data
-                        .par_iter_mut()
-                        .zip(local.par_iter())
-                        .for_each(|(a, b)| *a += *b);
+                    self.grads[src].data.par_iter_mut().zip(local.par_iter()).for_each(|(a, b)| *a += *b);
                 }
             }
         }

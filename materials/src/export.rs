@@ -20,19 +20,12 @@ fn linear_to_srgb(x: f64) -> f64 {
 pub fn base_color_rgb8(ev: &Evaluator) -> Vec<u8> {
     let img = ev.output_image(MapKind::BaseColor).expect("base colour");
     let n2 = img.size * img.size;
-    (0..n2 * 3)
-        .map(|i| to_u8(img.data[if img.channels == 1 { i / 3 } else { i }]))
-        .collect()
+    (0..n2 * 3).map(|i| to_u8(img.data[if img.channels == 1 { i / 3 } else { i }])).collect()
 }
 
 /// Roughness as 8-bit grey.
 pub fn roughness_gray8(ev: &Evaluator) -> Vec<u8> {
-    ev.output_image(MapKind::Roughness)
-        .expect("roughness")
-        .data
-        .iter()
-        .map(|&x| to_u8(x))
-        .collect()
+    ev.output_image(MapKind::Roughness).expect("roughness").data.iter().map(|&x| to_u8(x)).collect()
 }
 
 /// Normal encoded as RGB = 0.5 + 0.5 n (OpenGL convention, flat when absent).
@@ -46,12 +39,8 @@ pub fn normal_rgb8(ev: &Evaluator) -> Vec<u8> {
 
 /// Height as 16-bit grey, if the graph has one.
 pub fn height_gray16(ev: &Evaluator) -> Option<Vec<u16>> {
-    ev.output_image(MapKind::Height).map(|img| {
-        img.data
-            .iter()
-            .map(|&x| (x.clamp(0.0, 1.0) * 65535.0 + 0.5) as u16)
-            .collect()
-    })
+    ev.output_image(MapKind::Height)
+        .map(|img| img.data.iter().map(|&x| (x.clamp(0.0, 1.0) * 65535.0 + 0.5) as u16).collect())
 }
 
 /// A lit preview (8-bit sRGB RGB): Lambert plus a roughness-dependent highlight
@@ -74,9 +63,7 @@ pub fn preview_rgb8(ev: &Evaluator) -> Vec<u8> {
     };
     let mut out = Vec::with_capacity(n2 * 3);
     for i in 0..n2 {
-        let nrm = normal.map_or([0.0, 0.0, 1.0], |im| {
-            [im.data[i * 3], im.data[i * 3 + 1], im.data[i * 3 + 2]]
-        });
+        let nrm = normal.map_or([0.0, 0.0, 1.0], |im| [im.data[i * 3], im.data[i * 3 + 1], im.data[i * 3 + 2]]);
         let ndl = (nrm[0] * l[0] + nrm[1] * l[1] + nrm[2] * l[2]).max(0.0);
         let ndh = (nrm[0] * hv[0] + nrm[1] * hv[1] + nrm[2] * hv[2]).max(0.0);
         let r = rough.data[i].clamp(0.05, 1.0);

@@ -46,15 +46,7 @@ fn glyph(c: char) -> [u8; 5] {
 }
 
 /// Draws `text` into an RGB buffer of width `w` at (x, y) with pixel `scale`.
-pub fn draw_text(
-    buf: &mut [u8],
-    w: usize,
-    x: usize,
-    y: usize,
-    scale: usize,
-    text: &str,
-    rgb: [u8; 3],
-) {
+pub fn draw_text(buf: &mut [u8], w: usize, x: usize, y: usize, scale: usize, text: &str, rgb: [u8; 3]) {
     let h = buf.len() / (3 * w);
     for (k, c) in text.chars().enumerate() {
         let g = glyph(c);

@@ -102,19 +102,14 @@ impl Graph {
     /// Reads and compiles a graph file.
     pub fn load(path: &Path) -> Result<Graph, GraphError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| GraphError::Io {
-            file: file.clone(),
-            source,
-        })?;
+        let text = std::fs::read_to_string(path).map_err(|source| GraphError::Io { file: file.clone(), source })?;
         Graph::from_json(&text, &file)
     }
 
     /// Compiles a graph from JSON text; `file` names it in errors.
     pub fn from_json(text: &str, file: &str) -> Result<Graph, GraphError> {
-        let decl: GraphFile = serde_json::from_str(text).map_err(|e| GraphError::Json {
-            file: file.to_string(),
-            msg: e.to_string(),
-        })?;
+        let decl: GraphFile =
+            serde_json::from_str(text).map_err(|e| GraphError::Json { file: file.to_string(), msg: e.to_string() })?;
         Graph::compile(&decl, file)
     }
 
@@ -126,10 +121,7 @@ impl Graph {
         let mut index = std::collections::HashMap::new();
         for (k, n) in decl.nodes.iter().enumerate() {
             if index.insert(n.id.as_str(), k).is_some() {
-                return Err(GraphError::DuplicateNode {
-                    file: f,
-                    node: n.id.clone(),
-                });
+                return Err(GraphError::DuplicateNode { file: f, node: n.id.clone() });
             }
         }
         let mut specs = Vec::with_capacity(decl.nodes.len());
@@ -146,12 +138,7 @@ impl Graph {
                         file: f.clone(),
                         node: n.id.clone(),
                         input: input.clone(),
-                        known: spec
-                            .inputs
-                            .iter()
-                            .map(|i| i.name)
-                            .collect::<Vec<_>>()
-                            .join(", "),
+                        known: spec.inputs.iter().map(|i| i.name).collect::<Vec<_>>().join(", "),
                     });
                 }
                 if !index.contains_key(target.as_str()) {
@@ -199,11 +186,7 @@ impl Graph {
                             file: f.clone(),
                             node: n.id.clone(),
                             input: i.name.to_string(),
-                            expected: channel_name(if i.channels == Channels::Gray {
-                                1
-                            } else {
-                                3
-                            }),
+                            expected: channel_name(if i.channels == Channels::Gray { 1 } else { 3 }),
                             got: channel_name(c),
                         });
                     }
@@ -220,14 +203,7 @@ impl Graph {
                 OutRule::WidestInput => widest,
             };
             let (floats, ints) = bind_slots(n, spec, &params, file)?;
-            nodes.push(CompiledNode {
-                id: n.id.clone(),
-                spec,
-                inputs,
-                floats,
-                ints,
-                channels,
-            });
+            nodes.push(CompiledNode { id: n.id.clone(), spec, inputs, floats, ints, channels });
         }
         let find = |id: &str, what: &str, want: Option<usize>| -> Result<usize, GraphError> {
             let k = *index.get(id).ok_or_else(|| GraphError::BadOutput {
@@ -253,16 +229,8 @@ impl Graph {
         let outputs = OutputNodes {
             base_color: find(&o.base_color, "base_color", None)?,
             roughness: find(&o.roughness, "roughness", Some(1))?,
-            normal: o
-                .normal
-                .as_deref()
-                .map(|id| find(id, "normal", Some(3)))
-                .transpose()?,
-            height: o
-                .height
-                .as_deref()
-                .map(|id| find(id, "height", Some(1)))
-                .transpose()?,
+            normal: o.normal.as_deref().map(|id| find(id, "normal", Some(3))).transpose()?,
+            height: o.height.as_deref().map(|id| find(id, "height", Some(1))).transpose()?,
         };
         Ok(Graph {
             name: decl.name.clone(),
@@ -278,10 +246,7 @@ impl Graph {
 
     /// Default values of the exposed parameters.
     pub fn default_params(&self) -> Params {
-        let mut p = Params {
-            floats: vec![0.0; self.n_floats],
-            ints: vec![0; self.n_ints],
-        };
+        let mut p = Params { floats: vec![0.0; self.n_floats], ints: vec![0; self.n_ints] };
         for info in &self.params {
             for k in 0..info.len {
                 match info.kind {
@@ -303,11 +268,7 @@ impl Graph {
         let mut names = vec![String::new(); self.n_floats];
         for info in self.params.iter().filter(|p| p.kind != ParamKind::Int) {
             for k in 0..info.len {
-                names[info.offset + k] = if info.len == 1 {
-                    info.name.clone()
-                } else {
-                    format!("{}[{k}]", info.name)
-                };
+                names[info.offset + k] = if info.len == 1 { info.name.clone() } else { format!("{}[{k}]", info.name) };
             }
         }
         names
@@ -331,19 +292,12 @@ impl Graph {
 
     /// Applies one `key=value` override (`value` is a number, or `r,g,b` for a colour).
     pub fn apply_override(&self, params: &mut Params, assignment: &str) -> Result<(), ParamError> {
-        let (key, value) = assignment
-            .split_once('=')
-            .ok_or_else(|| ParamError::Syntax(assignment.to_string()))?;
+        let (key, value) = assignment.split_once('=').ok_or_else(|| ParamError::Syntax(assignment.to_string()))?;
         let (key, value) = (key.trim(), value.trim());
         let info = self.param(key).ok_or_else(|| ParamError::Unknown {
             material: self.name.clone(),
             key: key.to_string(),
-            known: self
-                .params
-                .iter()
-                .map(|p| p.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", "),
+            known: self.params.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", "),
         })?;
         let parts: Vec<&str> = value.split(',').map(str::trim).collect();
         let expected = match info.kind {
@@ -351,11 +305,7 @@ impl Graph {
             ParamKind::Int => "an integer",
             ParamKind::Color => "three numbers r,g,b",
         };
-        let bad = || ParamError::Parse {
-            key: key.to_string(),
-            value: value.to_string(),
-            expected,
-        };
+        let bad = || ParamError::Parse { key: key.to_string(), value: value.to_string(), expected };
         if parts.len() != info.len {
             return Err(bad());
         }
@@ -391,18 +341,11 @@ impl Graph {
     }
 }
 
-fn compile_params(
-    decls: &[ParamDecl],
-    file: &str,
-) -> Result<(Vec<ParamInfo>, usize, usize), GraphError> {
+fn compile_params(decls: &[ParamDecl], file: &str) -> Result<(Vec<ParamInfo>, usize, usize), GraphError> {
     let mut out: Vec<ParamInfo> = Vec::new();
     let (mut nf, mut ni) = (0, 0);
     for d in decls {
-        let err = |msg: String| GraphError::BadParam {
-            file: file.to_string(),
-            param: d.name.clone(),
-            msg,
-        };
+        let err = |msg: String| GraphError::BadParam { file: file.to_string(), param: d.name.clone(), msg };
         if out.iter().any(|p| p.name == d.name) {
             return Err(err("declared twice".into()));
         }
@@ -410,31 +353,15 @@ fn compile_params(
             "float" => ParamKind::Float,
             "int" => ParamKind::Int,
             "color" => ParamKind::Color,
-            other => {
-                return Err(err(format!(
-                    "unknown type '{other}' (use float, int or color)"
-                )))
-            }
+            other => return Err(err(format!("unknown type '{other}' (use float, int or color)"))),
         };
         let len = if kind == ParamKind::Color { 3 } else { 1 };
-        let read = |v: &Option<Value>,
-                    what: &str,
-                    fallback: Option<f64>|
-         -> Result<Vec<f64>, GraphError> {
+        let read = |v: &Option<Value>, what: &str, fallback: Option<f64>| -> Result<Vec<f64>, GraphError> {
             match v {
                 Some(v) => as_vec(v, len).ok_or_else(|| {
-                    err(format!(
-                        "'{what}' must be {}",
-                        if len == 1 {
-                            "a number"
-                        } else {
-                            "an array of 3 numbers"
-                        }
-                    ))
+                    err(format!("'{what}' must be {}", if len == 1 { "a number" } else { "an array of 3 numbers" }))
                 }),
-                None => fallback
-                    .map(|x| vec![x; len])
-                    .ok_or_else(|| err(format!("missing '{what}'"))),
+                None => fallback.map(|x| vec![x; len]).ok_or_else(|| err(format!("missing '{what}'"))),
             }
         };
         let color_fallback = |x| (kind == ParamKind::Color).then_some(x);
@@ -446,16 +373,10 @@ fn compile_params(
                 return Err(err(format!("min {} is above max {}", min[k], max[k])));
             }
             if !(default[k] >= min[k] && default[k] <= max[k]) {
-                return Err(err(format!(
-                    "default {} is outside the range [{}, {}]",
-                    default[k], min[k], max[k]
-                )));
+                return Err(err(format!("default {} is outside the range [{}, {}]", default[k], min[k], max[k])));
             }
             if kind == ParamKind::Int && default[k].fract() != 0.0 {
-                return Err(err(format!(
-                    "default {} of an int parameter is not an integer",
-                    default[k]
-                )));
+                return Err(err(format!("default {} of an int parameter is not an integer", default[k])));
             }
         }
         let offset = if kind == ParamKind::Int {
@@ -502,10 +423,7 @@ fn topo_order(
         }
         if state[k] == 1 {
             let start = stack.iter().position(|&s| s == k).unwrap_or(0);
-            let mut path: Vec<&str> = stack[start..]
-                .iter()
-                .map(|&s| nodes[s].id.as_str())
-                .collect();
+            let mut path: Vec<&str> = stack[start..].iter().map(|&s| nodes[s].id.as_str()).collect();
             path.push(nodes[k].id.as_str());
             return Err(path.join(" -> "));
         }
@@ -520,12 +438,8 @@ fn topo_order(
         Ok(())
     }
     for k in 0..nodes.len() {
-        visit(k, nodes, index, &mut state, &mut stack, &mut order).map_err(|path| {
-            GraphError::Cycle {
-                file: file.to_string(),
-                path,
-            }
-        })?;
+        visit(k, nodes, index, &mut state, &mut stack, &mut order)
+            .map_err(|path| GraphError::Cycle { file: file.to_string(), path })?;
     }
     Ok(order)
 }
@@ -543,12 +457,7 @@ fn bind_slots(
                 file: file.to_string(),
                 node: n.id.clone(),
                 param: key.clone(),
-                known: spec
-                    .slots
-                    .iter()
-                    .map(|s| s.name)
-                    .collect::<Vec<_>>()
-                    .join(", "),
+                known: spec.slots.iter().map(|s| s.name).collect::<Vec<_>>().join(", "),
             });
         }
     }
@@ -562,11 +471,8 @@ fn bind_slots(
             msg,
         };
         let value = n.params.get(slot.name);
-        let reference = |v: &Value| -> Option<String> {
-            v.as_str()
-                .and_then(|s| s.strip_prefix('$'))
-                .map(str::to_string)
-        };
+        let reference =
+            |v: &Value| -> Option<String> { v.as_str().and_then(|s| s.strip_prefix('$')).map(str::to_string) };
         let lookup = |name: &str| -> Result<&ParamInfo, GraphError> {
             params
                 .iter()
@@ -584,13 +490,9 @@ fn bind_slots(
                         }
                         floats.push(FloatBinding::Param(p.offset));
                     } else {
-                        let x = v.as_f64().ok_or_else(|| {
-                            err(format!("expected a number or \"$param\", got {v}"))
-                        })?;
+                        let x = v.as_f64().ok_or_else(|| err(format!("expected a number or \"$param\", got {v}")))?;
                         if x < min || x > max {
-                            return Err(err(format!(
-                                "value {x} is outside the range [{min}, {max}]"
-                            )));
+                            return Err(err(format!("value {x} is outside the range [{min}, {max}]")));
                         }
                         floats.push(FloatBinding::Literal(x));
                     }
@@ -606,9 +508,10 @@ fn bind_slots(
                         }
                         floats.extend((0..3).map(|k| FloatBinding::Param(p.offset + k)));
                     } else {
-                        let arr = v.as_array().filter(|a| a.len() == 3).ok_or_else(|| {
-                            err(format!("expected [r, g, b] or \"$param\", got {v}"))
-                        })?;
+                        let arr = v
+                            .as_array()
+                            .filter(|a| a.len() == 3)
+                            .ok_or_else(|| err(format!("expected [r, g, b] or \"$param\", got {v}")))?;
                         for c in arr {
                             if let Some(name) = reference(c) {
                                 let p = lookup(&name)?;
@@ -617,13 +520,10 @@ fn bind_slots(
                                 }
                                 floats.push(FloatBinding::Param(p.offset));
                             } else {
-                                let x = c.as_f64().ok_or_else(|| {
-                                    err(format!("colour component {c} is not a number"))
-                                })?;
+                                let x =
+                                    c.as_f64().ok_or_else(|| err(format!("colour component {c} is not a number")))?;
                                 if !(0.0..=1.0).contains(&x) {
-                                    return Err(err(format!(
-                                        "colour component {x} is outside [0, 1]"
-                                    )));
+                                    return Err(err(format!("colour component {x} is outside [0, 1]")));
                                 }
                                 floats.push(FloatBinding::Literal(x));
                             }
@@ -631,12 +531,7 @@ fn bind_slots(
                     }
                 }
             },
-            SlotKind::Int {
-                min,
-                max,
-                default,
-                names,
-            } => match value {
+            SlotKind::Int { min, max, default, names } => match value {
                 None => ints.push(IntBinding::Literal(default)),
                 Some(v) => {
                     if let Some(name) = reference(v) {
@@ -655,24 +550,16 @@ fn bind_slots(
                         let k = names.iter().position(|&x| x == s).ok_or_else(|| {
                             err(format!(
                                 "unknown choice '{s}' (choices: {})",
-                                if names.is_empty() {
-                                    "none, use an integer".to_string()
-                                } else {
-                                    names.join(", ")
-                                }
+                                if names.is_empty() { "none, use an integer".to_string() } else { names.join(", ") }
                             ))
                         })?;
                         ints.push(IntBinding::Literal(k as i64));
                     } else {
-                        let x = v.as_i64().ok_or_else(|| {
-                            err(format!(
-                                "expected an integer, a choice name or \"$param\", got {v}"
-                            ))
-                        })?;
+                        let x = v
+                            .as_i64()
+                            .ok_or_else(|| err(format!("expected an integer, a choice name or \"$param\", got {v}")))?;
                         if x < min || x > max {
-                            return Err(err(format!(
-                                "value {x} is outside the range [{min}, {max}]"
-                            )));
+                            return Err(err(format!("value {x} is outside the range [{min}, {max}]")));
                         }
                         ints.push(IntBinding::Literal(x));
                     }

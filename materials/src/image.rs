@@ -10,11 +10,7 @@ pub struct Image {
 
 impl Image {
     pub fn new(size: usize, channels: usize) -> Self {
-        Image {
-            size,
-            channels,
-            data: vec![0.0; size * size * channels],
-        }
+        Image { size, channels, data: vec![0.0; size * size * channels] }
     }
 
     /// Reshape in place; reallocates only when the buffer must grow.

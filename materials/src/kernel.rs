@@ -25,13 +25,7 @@ pub trait Generator: Send + Sync + 'static {
 /// texels at the same place. Grey inputs arrive broadcast to 3 channels,
 /// missing optional inputs as 1.0.
 pub trait Pointwise: Send + Sync + 'static {
-    fn eval<T: Real>(
-        &self,
-        f: &[T],
-        i: &[i64],
-        ins: &[[T; 3]; MAX_INPUTS],
-        out_ch: usize,
-    ) -> [T; 3];
+    fn eval<T: Real>(&self, f: &[T], i: &[i64], ins: &[[T; 3]; MAX_INPUTS], out_ch: usize) -> [T; 3];
 }
 
 pub struct GenNode<G>(pub G);
@@ -53,14 +47,7 @@ impl<G: Generator> NodeOp for GenNode<G> {
         });
     }
 
-    fn backward(
-        &self,
-        a: &NodeArgs,
-        _: &[Option<&Image>],
-        _: &Image,
-        d_out: &Image,
-        cx: BackwardCtx,
-    ) {
+    fn backward(&self, a: &NodeArgs, _: &[Option<&Image>], _: &Image, d_out: &Image, cx: BackwardCtx) {
         // Fixed-size lane list: no heap allocation per call.
         let mut lanes = [0usize; MAX_FLOAT_SLOTS];
         let mut nl = 0;
@@ -97,34 +84,25 @@ fn seeded_params<const N: usize>(f: &[f64], lanes: &[usize]) -> [Dual<N>; MAX_FL
     p
 }
 
-fn gen_chunk<G: Generator, const N: usize>(
-    g: &G,
-    a: &NodeArgs,
-    d_out: &Image,
-    lanes: &[usize],
-    row_acc: &mut [f64],
-) {
+fn gen_chunk<G: Generator, const N: usize>(g: &G, a: &NodeArgs, d_out: &Image, lanes: &[usize], row_acc: &mut [f64]) {
     let n = a.size;
     let p = seeded_params::<N>(a.f, lanes);
     let nf = a.f.len();
-    row_acc
-        .par_chunks_mut(LANES)
-        .enumerate()
-        .for_each(|(y, acc_row)| {
-            let v = coord(y, n);
-            let mut acc = [0.0; N];
-            for x in 0..n {
-                let g_out = d_out.data[y * n + x];
-                if g_out == 0.0 {
-                    continue;
-                }
-                let r = g.eval(&p[..nf], a.i, coord(x, n), v);
-                for k in 0..N {
-                    acc[k] += g_out * r.d[k];
-                }
+    row_acc.par_chunks_mut(LANES).enumerate().for_each(|(y, acc_row)| {
+        let v = coord(y, n);
+        let mut acc = [0.0; N];
+        for x in 0..n {
+            let g_out = d_out.data[y * n + x];
+            if g_out == 0.0 {
+                continue;
             }
-            acc_row[..lanes.len()].copy_from_slice(&acc[..lanes.len()]);
-        });
+            let r = g.eval(&p[..nf], a.i, coord(x, n), v);
+            for k in 0..N {
+                acc[k] += g_out * r.d[k];
+            }
+        }
+        acc_row[..lanes.len()].copy_from_slice(&acc[..lanes.len()]);
+    });
 }
 
 /// A local variable of a pointwise kernel: a float slot or one input channel.
@@ -154,26 +132,16 @@ impl<P: Pointwise> NodeOp for PointNode<P> {
     fn forward(&self, a: &NodeArgs, ins: &[Option<&Image>], out: &mut Image, _s: &mut Vec<f64>) {
         let n = a.size;
         let oc = a.out_channels;
-        out.data
-            .par_chunks_mut(n * oc)
-            .enumerate()
-            .for_each(|(y, row)| {
-                for x in 0..n {
-                    let v = load::<f64>(ins, y * n + x);
-                    let r = self.0.eval(a.f, a.i, &v, oc);
-                    row[x * oc..x * oc + oc].copy_from_slice(&r[..oc]);
-                }
-            });
+        out.data.par_chunks_mut(n * oc).enumerate().for_each(|(y, row)| {
+            for x in 0..n {
+                let v = load::<f64>(ins, y * n + x);
+                let r = self.0.eval(a.f, a.i, &v, oc);
+                row[x * oc..x * oc + oc].copy_from_slice(&r[..oc]);
+            }
+        });
     }
 
-    fn backward(
-        &self,
-        a: &NodeArgs,
-        ins: &[Option<&Image>],
-        _: &Image,
-        d_out: &Image,
-        cx: BackwardCtx,
-    ) {
+    fn backward(&self, a: &NodeArgs, ins: &[Option<&Image>], _: &Image, d_out: &Image, cx: BackwardCtx) {
         // Fixed-size lane and writer lists: no heap allocation per call.
         let mut lanes = [Lane::Slot(0); MAX_FLOAT_SLOTS + 3 * MAX_INPUTS];
         let mut nl = 0;
@@ -238,50 +206,47 @@ fn pw_chunk<P: Pointwise, const N: usize>(
         }
     }
     let nf = a.f.len();
-    row_acc
-        .par_chunks_mut(LANES)
-        .enumerate()
-        .for_each(|(y, acc_row)| {
-            let mut acc = [0.0; N];
-            for x in 0..n {
-                let idx = y * n + x;
-                let g = &d_out.data[idx * oc..idx * oc + oc];
-                if g.iter().all(|&v| v == 0.0) {
-                    continue;
-                }
-                let mut v = load::<Dual<N>>(ins, idx);
-                for (k, lane) in lanes.iter().enumerate() {
-                    if let Lane::In(j, c) = *lane {
-                        if ins[j].map(|im| im.channels) == Some(1) {
-                            for t in &mut v[j] {
-                                t.d[k] = 1.0;
-                            }
-                        } else {
-                            v[j][c].d[k] = 1.0;
+    row_acc.par_chunks_mut(LANES).enumerate().for_each(|(y, acc_row)| {
+        let mut acc = [0.0; N];
+        for x in 0..n {
+            let idx = y * n + x;
+            let g = &d_out.data[idx * oc..idx * oc + oc];
+            if g.iter().all(|&v| v == 0.0) {
+                continue;
+            }
+            let mut v = load::<Dual<N>>(ins, idx);
+            for (k, lane) in lanes.iter().enumerate() {
+                if let Lane::In(j, c) = *lane {
+                    if ins[j].map(|im| im.channels) == Some(1) {
+                        for t in &mut v[j] {
+                            t.d[k] = 1.0;
                         }
+                    } else {
+                        v[j][c].d[k] = 1.0;
                     }
                 }
-                let r = p.eval(&fp[..nf], a.i, &v, oc);
-                let mut lane_g = [0.0; N];
-                for c in 0..oc {
-                    for k in 0..N {
-                        lane_g[k] += g[c] * r[c].d[k];
-                    }
+            }
+            let r = p.eval(&fp[..nf], a.i, &v, oc);
+            let mut lane_g = [0.0; N];
+            for c in 0..oc {
+                for k in 0..N {
+                    lane_g[k] += g[c] * r[c].d[k];
                 }
-                for (k, lane) in lanes.iter().enumerate() {
-                    match *lane {
-                        Lane::Slot(_) => acc[k] += lane_g[k],
-                        Lane::In(j, c) => {
-                            let ch = ins[j].map_or(1, |im| im.channels);
-                            if let Some(w) = &writers[j] {
-                                // SAFETY: this task only touches texel `idx` of row `y`.
-                                let t = unsafe { w.range(idx * ch + c, 1) };
-                                t[0] += lane_g[k];
-                            }
+            }
+            for (k, lane) in lanes.iter().enumerate() {
+                match *lane {
+                    Lane::Slot(_) => acc[k] += lane_g[k],
+                    Lane::In(j, c) => {
+                        let ch = ins[j].map_or(1, |im| im.channels);
+                        if let Some(w) = &writers[j] {
+                            // SAFETY: this task only touches texel `idx` of row `y`.
+                            let t = unsafe { w.range(idx * ch + c, 1) };
+                            t[0] += lane_g[k];
                         }
                     }
                 }
             }
-            acc_row[..lanes.len()].copy_from_slice(&acc[..lanes.len()]);
-        });
+        }
+        acc_row[..lanes.len()].copy_from_slice(&acc[..lanes.len()]);
+    });
 }

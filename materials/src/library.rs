@@ -13,10 +13,7 @@ pub fn names() -> Vec<&'static str> {
 
 /// The JSON text of a library material.
 pub fn source(name: &str) -> Option<&'static str> {
-    LIBRARY_FILES
-        .iter()
-        .find(|(n, _)| *n == name)
-        .map(|(_, s)| *s)
+    LIBRARY_FILES.iter().find(|(n, _)| *n == name).map(|(_, s)| *s)
 }
 
 /// Compiles a library material; `None` if there is no such name.

@@ -15,12 +15,7 @@ pub enum SlotKind {
     /// An RGB triple in [0, 1] (three float slots).
     Color { default: [f64; 3] },
     /// An integer choice; `names` optionally gives symbolic values 0, 1, 2, ...
-    Int {
-        min: i64,
-        max: i64,
-        default: i64,
-        names: &'static [&'static str],
-    },
+    Int { min: i64, max: i64, default: i64, names: &'static [&'static str] },
 }
 
 /// One named parameter slot of a node type.
@@ -94,21 +89,8 @@ pub struct BackwardCtx<'a> {
 
 /// Forward and exact reverse-mode backward of a node type.
 pub trait NodeOp: Send + Sync {
-    fn forward(
-        &self,
-        a: &NodeArgs,
-        ins: &[Option<&Image>],
-        out: &mut Image,
-        scratch: &mut Vec<f64>,
-    );
-    fn backward(
-        &self,
-        a: &NodeArgs,
-        ins: &[Option<&Image>],
-        out: &Image,
-        d_out: &Image,
-        cx: BackwardCtx,
-    );
+    fn forward(&self, a: &NodeArgs, ins: &[Option<&Image>], out: &mut Image, scratch: &mut Vec<f64>);
+    fn backward(&self, a: &NodeArgs, ins: &[Option<&Image>], out: &Image, d_out: &Image, cx: BackwardCtx);
 }
 
 /// Sums per-row partials `row_acc[row * stride + k]` into `d[k]` in row order
@@ -134,11 +116,7 @@ unsafe impl Sync for RowWriter<'_> {}
 
 impl<'a> RowWriter<'a> {
     pub fn new(buf: &'a mut [f64]) -> Self {
-        RowWriter {
-            ptr: buf.as_mut_ptr(),
-            len: buf.len(),
-            _m: std::marker::PhantomData,
-        }
+        RowWriter { ptr: buf.as_mut_ptr(), len: buf.len(), _m: std::marker::PhantomData }
     }
     /// Mutable view of `[start, start + n)`.
     ///

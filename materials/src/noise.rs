@@ -5,9 +5,7 @@
 pub fn hash(x: i64, y: i64, seed: u64) -> u64 {
     let mut h = (x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
         ^ (y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
-        ^ seed
-            .wrapping_mul(0x1656_67B1_9E37_79F9)
-            .wrapping_add(0x27D4_EB2F_1656_67C5);
+        ^ seed.wrapping_mul(0x1656_67B1_9E37_79F9).wrapping_add(0x27D4_EB2F_1656_67C5);
     h ^= h >> 33;
     h = h.wrapping_mul(0xFF51_AFD7_ED55_8CCD);
     h ^= h >> 33;
@@ -32,22 +30,10 @@ const GRAD: [(f64, f64); 8] = [
     (-1.0, 0.0),
     (0.0, 1.0),
     (0.0, -1.0),
-    (
-        std::f64::consts::FRAC_1_SQRT_2,
-        std::f64::consts::FRAC_1_SQRT_2,
-    ),
-    (
-        -std::f64::consts::FRAC_1_SQRT_2,
-        std::f64::consts::FRAC_1_SQRT_2,
-    ),
-    (
-        std::f64::consts::FRAC_1_SQRT_2,
-        -std::f64::consts::FRAC_1_SQRT_2,
-    ),
-    (
-        -std::f64::consts::FRAC_1_SQRT_2,
-        -std::f64::consts::FRAC_1_SQRT_2,
-    ),
+    (std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2),
+    (-std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2),
+    (std::f64::consts::FRAC_1_SQRT_2, -std::f64::consts::FRAC_1_SQRT_2),
+    (-std::f64::consts::FRAC_1_SQRT_2, -std::f64::consts::FRAC_1_SQRT_2),
 ];
 
 /// Gradient (Perlin) noise in about [-1, 1] at lattice coordinates (x, y),
@@ -75,13 +61,7 @@ pub fn octaves(u: f64, v: f64, px: i64, py: i64, seed: u64, out: &mut [f64]) {
     for (k, o) in out.iter_mut().enumerate() {
         let f = 1i64 << k;
         let (qx, qy) = (px * f, py * f);
-        *o = perlin(
-            u * qx as f64,
-            v * qy as f64,
-            qx,
-            qy,
-            seed.wrapping_add(k as u64 * 7919),
-        );
+        *o = perlin(u * qx as f64, v * qy as f64, qx, qy, seed.wrapping_add(k as u64 * 7919));
     }
 }
 

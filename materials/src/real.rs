@@ -216,20 +216,14 @@ impl<const N: usize> Add<f64> for Dual<N> {
     type Output = Self;
     #[inline(always)]
     fn add(self, o: f64) -> Self {
-        Dual {
-            v: self.v + o,
-            d: self.d,
-        }
+        Dual { v: self.v + o, d: self.d }
     }
 }
 impl<const N: usize> Sub<f64> for Dual<N> {
     type Output = Self;
     #[inline(always)]
     fn sub(self, o: f64) -> Self {
-        Dual {
-            v: self.v - o,
-            d: self.d,
-        }
+        Dual { v: self.v - o, d: self.d }
     }
 }
 impl<const N: usize> Mul<f64> for Dual<N> {

@@ -47,42 +47,24 @@ pub(crate) fn fill_maps(
     height: Option<&Image>,
 ) {
     let bc = base.channels;
-    maps.albedo_linear
-        .par_chunks_mut(3)
-        .enumerate()
-        .for_each(|(i, t)| {
-            for (c, v) in t.iter_mut().enumerate() {
-                let s = base.data[i * bc + if bc == 1 { 0 } else { c }];
-                *v = srgb_to_linear(s.clamp(0.0, 1.0)).0 as f32;
-            }
-        });
-    maps.roughness
-        .par_iter_mut()
-        .zip(rough.data.par_iter())
-        .for_each(|(r, &v)| *r = v.clamp(0.0, 1.0) as f32);
+    maps.albedo_linear.par_chunks_mut(3).enumerate().for_each(|(i, t)| {
+        for (c, v) in t.iter_mut().enumerate() {
+            let s = base.data[i * bc + if bc == 1 { 0 } else { c }];
+            *v = srgb_to_linear(s.clamp(0.0, 1.0)).0 as f32;
+        }
+    });
+    maps.roughness.par_iter_mut().zip(rough.data.par_iter()).for_each(|(r, &v)| *r = v.clamp(0.0, 1.0) as f32);
     match normal {
-        Some(nm) => maps
-            .normal
-            .par_iter_mut()
-            .zip(nm.data.par_iter())
-            .for_each(|(r, &v)| *r = v as f32),
-        None => maps
-            .normal
-            .par_chunks_mut(3)
-            .for_each(|t| t.copy_from_slice(&[0.0, 0.0, 1.0])),
+        Some(nm) => maps.normal.par_iter_mut().zip(nm.data.par_iter()).for_each(|(r, &v)| *r = v as f32),
+        None => maps.normal.par_chunks_mut(3).for_each(|t| t.copy_from_slice(&[0.0, 0.0, 1.0])),
     }
     if let (Some(h), Some(dst)) = (height, maps.height.as_mut()) {
-        dst.par_iter_mut()
-            .zip(h.data.par_iter())
-            .for_each(|(r, &v)| *r = v as f32);
+        dst.par_iter_mut().zip(h.data.par_iter()).for_each(|(r, &v)| *r = v as f32);
     }
 }
 
 fn check_len(name: &str, got: usize, want: usize) {
-    assert_eq!(
-        got, want,
-        "RenderGrads::{name} has {got} values, expected {want}"
-    );
+    assert_eq!(got, want, "RenderGrads::{name} has {got} values, expected {want}");
 }
 
 /// Adds the gradient arriving at output node `k` from the maps it feeds.
@@ -98,8 +80,7 @@ pub(crate) fn seed(k: usize, o: OutputNodes, g: &RenderGrads, img: &Image, grad:
                     // Clamped outside [0, 1]: zero derivative there (one-sided at
                     // the bounds, so a value resting on a bound can move back).
                     if (0.0..=1.0).contains(&s) {
-                        d[if ch == 1 { 0 } else { c }] +=
-                            ga[i * 3 + c] as f64 * srgb_to_linear(s).1;
+                        d[if ch == 1 { 0 } else { c }] += ga[i * 3 + c] as f64 * srgb_to_linear(s).1;
                     }
                 }
             });
@@ -119,19 +100,13 @@ pub(crate) fn seed(k: usize, o: OutputNodes, g: &RenderGrads, img: &Image, grad:
     if Some(k) == o.normal {
         if let Some(gn) = g.normal {
             check_len("normal", gn.len(), n2 * 3);
-            grad.data
-                .par_iter_mut()
-                .zip(gn.par_iter())
-                .for_each(|(d, &v)| *d += v as f64);
+            grad.data.par_iter_mut().zip(gn.par_iter()).for_each(|(d, &v)| *d += v as f64);
         }
     }
     if Some(k) == o.height {
         if let Some(gh) = g.height {
             check_len("height", gh.len(), n2);
-            grad.data
-                .par_iter_mut()
-                .zip(gh.par_iter())
-                .for_each(|(d, &v)| *d += v as f64);
+            grad.data.par_iter_mut().zip(gh.par_iter()).for_each(|(d, &v)| *d += v as f64);
         }
     }
 }

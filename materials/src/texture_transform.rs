@@ -18,11 +18,7 @@ pub struct TextureTransform {
 
 impl Default for TextureTransform {
     fn default() -> Self {
-        TextureTransform {
-            scale: [1.0, 1.0],
-            rotation_deg: 0.0,
-            offset: [0.0, 0.0],
-        }
+        TextureTransform { scale: [1.0, 1.0], rotation_deg: 0.0, offset: [0.0, 0.0] }
     }
 }
 
@@ -54,12 +50,7 @@ struct Footprint {
 impl Footprint {
     fn weights(&self) -> [f64; 4] {
         let (fx, fy) = (self.fx, self.fy);
-        [
-            (1.0 - fx) * (1.0 - fy),
-            fx * (1.0 - fy),
-            (1.0 - fx) * fy,
-            fx * fy,
-        ]
+        [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy]
     }
 }
 
@@ -72,11 +63,7 @@ impl TextureView<'_> {
         let (xa, xb) = (wrap(x0, self.width), wrap(x0 + 1.0, self.width));
         let (ya, yb) = (wrap(y0, self.height), wrap(y0 + 1.0, self.height));
         let at = |x: usize, y: usize| (y * self.width + x) * self.channels;
-        Footprint {
-            idx: [at(xa, ya), at(xb, ya), at(xa, yb), at(xb, yb)],
-            fx: x - x0,
-            fy: y - y0,
-        }
+        Footprint { idx: [at(xa, ya), at(xb, ya), at(xa, yb), at(xb, yb)], fx: x - x0, fy: y - y0 }
     }
 }
 
@@ -89,10 +76,7 @@ impl TextureTransform {
     pub fn apply(&self, uv: [f64; 2]) -> [f64; 2] {
         let (s, c) = self.rotation();
         let (a, b) = (self.scale[0] * uv[0], self.scale[1] * uv[1]);
-        [
-            c * a - s * b + self.offset[0],
-            s * a + c * b + self.offset[1],
-        ]
+        [c * a - s * b + self.offset[0], s * a + c * b + self.offset[1]]
     }
 
     /// Bilinear lookup of every channel at the transformed `uv` into `out` (len = channels).
@@ -100,9 +84,7 @@ impl TextureTransform {
         let fp = tex.footprint(self.apply(uv));
         let w = fp.weights();
         for (ch, o) in out.iter_mut().enumerate().take(tex.channels) {
-            *o = (0..4)
-                .map(|k| w[k] * tex.texels[fp.idx[k] + ch] as f64)
-                .sum();
+            *o = (0..4).map(|k| w[k] * tex.texels[fp.idx[k] + ch] as f64).sum();
         }
     }
 
@@ -161,12 +143,7 @@ mod tests {
     fn transform_and_texel_gradients_match_finite_differences() {
         let (w, h, ch) = (13, 9, 3);
         let texels = smooth_texture(w, h, ch);
-        let tex = TextureView {
-            width: w,
-            height: h,
-            channels: ch,
-            texels: &texels,
-        };
+        let tex = TextureView { width: w, height: h, channels: ch, texels: &texels };
         let d_out = [0.3, -1.1, 0.7];
         let loss = |t: &TextureTransform, texels: &[f32], uv: [f64; 2]| {
             let tex = TextureView { texels, ..tex };
@@ -189,92 +166,40 @@ mod tests {
             let eps = 1e-7;
             let cell = |t: &TextureTransform| {
                 let p = t.apply(uv);
-                (
-                    (p[0] * w as f64 - 0.5).floor(),
-                    ((1.0 - p[1]) * h as f64 - 0.5).floor(),
-                )
+                ((p[0] * w as f64 - 0.5).floor(), ((1.0 - p[1]) * h as f64 - 0.5).floor())
             };
             let fd = |f: &dyn Fn(f64) -> TextureTransform| {
                 let (tp, tm) = (f(eps), f(-eps));
-                (cell(&tp) == cell(&tm))
-                    .then(|| (loss(&tp, &texels, uv) - loss(&tm, &texels, uv)) / (2.0 * eps))
+                (cell(&tp) == cell(&tm)).then(|| (loss(&tp, &texels, uv) - loss(&tm, &texels, uv)) / (2.0 * eps))
             };
             let cases: [(f64, Box<dyn Fn(f64) -> TextureTransform>); 5] = [
-                (
-                    g.scale[0],
-                    Box::new(|e| TextureTransform {
-                        scale: [t.scale[0] + e, t.scale[1]],
-                        ..t
-                    }),
-                ),
-                (
-                    g.scale[1],
-                    Box::new(|e| TextureTransform {
-                        scale: [t.scale[0], t.scale[1] + e],
-                        ..t
-                    }),
-                ),
-                (
-                    g.rotation_deg,
-                    Box::new(|e| TextureTransform {
-                        rotation_deg: t.rotation_deg + e,
-                        ..t
-                    }),
-                ),
-                (
-                    g.offset[0],
-                    Box::new(|e| TextureTransform {
-                        offset: [t.offset[0] + e, t.offset[1]],
-                        ..t
-                    }),
-                ),
-                (
-                    g.offset[1],
-                    Box::new(|e| TextureTransform {
-                        offset: [t.offset[0], t.offset[1] + e],
-                        ..t
-                    }),
-                ),
+                (g.scale[0], Box::new(|e| TextureTransform { scale: [t.scale[0] + e, t.scale[1]], ..t })),
+                (g.scale[1], Box::new(|e| TextureTransform { scale: [t.scale[0], t.scale[1] + e], ..t })),
+                (g.rotation_deg, Box::new(|e| TextureTransform { rotation_deg: t.rotation_deg + e, ..t })),
+                (g.offset[0], Box::new(|e| TextureTransform { offset: [t.offset[0] + e, t.offset[1]], ..t })),
+                (g.offset[1], Box::new(|e| TextureTransform { offset: [t.offset[0], t.offset[1] + e], ..t })),
             ];
             for (ad, f) in cases.iter() {
                 if let Some(fd) = fd(f.as_ref()) {
-                    assert!(
-                        (ad - fd).abs() <= 1e-5 * (1.0 + fd.abs()),
-                        "case {k}: AD {ad} vs FD {fd}"
-                    );
+                    assert!((ad - fd).abs() <= 1e-5 * (1.0 + fd.abs()), "case {k}: AD {ad} vs FD {fd}");
                     checked += 1;
                 }
             }
             // The lookup is linear in the texels, so a texel's FD is exact up to rounding.
-            let i = d_tex
-                .iter()
-                .position(|&d| d != 0.0)
-                .expect("lookup touches texels");
+            let i = d_tex.iter().position(|&d| d != 0.0).expect("lookup touches texels");
             let mut tp = texels.clone();
             tp[i] += 1e-2;
             let fd = (loss(&t, &tp, uv) - loss(&t, &texels, uv)) / (tp[i] - texels[i]) as f64;
-            assert!(
-                (d_tex[i] - fd).abs() < 1e-4 * (1.0 + fd.abs()),
-                "texel {i}: AD {} vs FD {fd}",
-                d_tex[i]
-            );
+            assert!((d_tex[i] - fd).abs() < 1e-4 * (1.0 + fd.abs()), "texel {i}: AD {} vs FD {fd}", d_tex[i]);
         }
-        assert!(
-            checked > 900,
-            "only {checked} of 1000 FD checks stayed inside a texel cell"
-        );
+        assert!(checked > 900, "only {checked} of 1000 FD checks stayed inside a texel cell");
     }
 
     /// Wrap: shifting the transformed uv by whole texture periods gives the same value (identity transform).
     #[test]
     fn lookup_wraps_by_whole_periods() {
         let texels = smooth_texture(8, 8, 1);
-        let tex = TextureView {
-            width: 8,
-            height: 8,
-            channels: 1,
-            texels: &texels,
-        };
+        let tex = TextureView { width: 8, height: 8, channels: 1, texels: &texels };
         let t = TextureTransform::default();
         for uv in [[0.01, 0.02], [0.37, 0.91], [0.999, 0.5]] {
             let (mut a, mut b) = ([0.0], [0.0]);
@@ -288,22 +213,13 @@ mod tests {
     #[test]
     fn texel_centres_follow_the_renderer_convention() {
         let texels: Vec<f32> = (0..12).map(|i| i as f32).collect();
-        let tex = TextureView {
-            width: 4,
-            height: 3,
-            channels: 1,
-            texels: &texels,
-        };
+        let tex = TextureView { width: 4, height: 3, channels: 1, texels: &texels };
         let t = TextureTransform::default();
         for (x, y) in [(0usize, 0usize), (3, 0), (1, 2), (2, 1)] {
             let uv = [(x as f64 + 0.5) / 4.0, 1.0 - (y as f64 + 0.5) / 3.0];
             let mut out = [0.0];
             t.lookup(&tex, uv, &mut out);
-            assert!(
-                (out[0] - (y * 4 + x) as f64).abs() < 1e-9,
-                "texel ({x},{y}) read {}",
-                out[0]
-            );
+            assert!((out[0] - (y * 4 + x) as f64).abs() < 1e-9, "texel ({x},{y}) read {}", out[0]);
         }
     }
 }

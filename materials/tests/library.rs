@@ -45,22 +45,11 @@ fn every_material_is_finite_over_random_parameters() {
         for draw in 0..3 {
             let p = any_params(&g, &mut rng);
             let m = ev.forward(&p);
-            let all = m
-                .albedo_linear
-                .iter()
-                .chain(&m.roughness)
-                .chain(&m.normal)
-                .chain(m.height.iter().flatten());
-            assert!(
-                all.clone().all(|x| x.is_finite()),
-                "{name} draw {draw}: non-finite texel with {p:?}"
-            );
+            let all = m.albedo_linear.iter().chain(&m.roughness).chain(&m.normal).chain(m.height.iter().flatten());
+            assert!(all.clone().all(|x| x.is_finite()), "{name} draw {draw}: non-finite texel with {p:?}");
             for t in m.normal.chunks(3) {
                 let len = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
-                assert!(
-                    (len - 1.0).abs() < 1e-4 && t[2] > 0.0,
-                    "{name}: normal {t:?} not unit / outward"
-                );
+                assert!((len - 1.0).abs() < 1e-4 && t[2] > 0.0, "{name}: normal {t:?} not unit / outward");
             }
         }
     }
@@ -96,27 +85,12 @@ fn render_loss(ev: &mut Evaluator, p: &Params, w: &Weights) -> f64 {
         }
     }
     let r = ev.output_image(MapKind::Roughness).unwrap();
-    l += r
-        .data
-        .iter()
-        .zip(&w.rough)
-        .map(|(a, b)| a.clamp(0.0, 1.0) * *b as f64)
-        .sum::<f64>();
+    l += r.data.iter().zip(&w.rough).map(|(a, b)| a.clamp(0.0, 1.0) * *b as f64).sum::<f64>();
     if let Some(nm) = ev.output_image(MapKind::Normal) {
-        l += nm
-            .data
-            .iter()
-            .zip(&w.normal)
-            .map(|(a, b)| a * *b as f64)
-            .sum::<f64>();
+        l += nm.data.iter().zip(&w.normal).map(|(a, b)| a * *b as f64).sum::<f64>();
     }
     if let Some(h) = ev.output_image(MapKind::Height) {
-        l += h
-            .data
-            .iter()
-            .zip(&w.height)
-            .map(|(a, b)| a * *b as f64)
-            .sum::<f64>();
+        l += h.data.iter().zip(&w.height).map(|(a, b)| a * *b as f64).sum::<f64>();
     }
     l
 }
@@ -130,17 +104,8 @@ fn every_material_gradient_matches_finite_differences() {
         let mut ev = Evaluator::new(g.clone(), N);
         let mut rng = Rng(7 + t as u64);
         let p = random_params(&ev, &mut rng);
-        let mut wv = |len: usize| {
-            (0..len)
-                .map(|_| rng.range(-1.0, 1.0) as f32)
-                .collect::<Vec<_>>()
-        };
-        let w = Weights {
-            albedo: wv(N * N * 3),
-            rough: wv(N * N),
-            normal: wv(N * N * 3),
-            height: wv(N * N),
-        };
+        let mut wv = |len: usize| (0..len).map(|_| rng.range(-1.0, 1.0) as f32).collect::<Vec<_>>();
+        let w = Weights { albedo: wv(N * N * 3), rough: wv(N * N), normal: wv(N * N * 3), height: wv(N * N) };
         ev.forward(&p);
         let has_h = ev.maps().height.is_some();
         let grads = RenderGrads {
@@ -152,17 +117,11 @@ fn every_material_gradient_matches_finite_differences() {
         let mut grad = vec![0.0; g.num_floats()];
         ev.backward(&grads, &mut grad);
         assert!(grad.iter().any(|&x| x != 0.0), "{name}: all-zero gradient");
-        if let Err(e) = check_fd(&mut ev, &p, &grad, 1e-4, 1e-5, |ev, p| {
-            render_loss(ev, p, &w)
-        }) {
+        if let Err(e) = check_fd(&mut ev, &p, &grad, 1e-4, 1e-5, |ev, p| render_loss(ev, p, &w)) {
             failures.push(format!("{name}: {e}"));
         }
     }
-    assert!(
-        failures.is_empty(),
-        "FD mismatches:\n{}",
-        failures.join("\n")
-    );
+    assert!(failures.is_empty(), "FD mismatches:\n{}", failures.join("\n"));
 }
 
 /// Mean absolute difference between rows a and b (or columns when `cols`).
@@ -170,11 +129,7 @@ fn line_diff(d: &[f64], n: usize, ch: usize, a: usize, b: usize, cols: bool) -> 
     let mut s = 0.0;
     for k in 0..n {
         for c in 0..ch {
-            let (ia, ib) = if cols {
-                (k * n + a, k * n + b)
-            } else {
-                (a * n + k, b * n + k)
-            };
+            let (ia, ib) = if cols { (k * n + a, k * n + b) } else { (a * n + k, b * n + k) };
             s += (d[ia * ch + c] - d[ib * ch + c]).abs();
         }
     }
@@ -197,18 +152,15 @@ fn seam_vs_interior(d: &[f64], n: usize, ch: usize) -> (f64, f64) {
 
 fn check_tiles(ev: &mut Evaluator, p: &Params) -> Result<(), String> {
     ev.evaluate(p);
-    for map in [
-        MapKind::BaseColor,
-        MapKind::Roughness,
-        MapKind::Height,
-        MapKind::Normal,
-    ] {
+    for map in [MapKind::BaseColor, MapKind::Roughness, MapKind::Height, MapKind::Normal] {
         if let Some(img) = ev.output_image(map) {
             let (seam, interior) = seam_vs_interior(&img.data, img.size, img.channels);
             // For noise the seam is one more draw from the interior distribution,
             // so it may exceed the interior maximum slightly: allow 25%.
             if seam > 1.25 * interior + 1e-9 {
-                return Err(format!("{map:?}: seam {seam:.4} > 1.25 x largest interior neighbour difference {interior:.4}"));
+                return Err(format!(
+                    "{map:?}: seam {seam:.4} > 1.25 x largest interior neighbour difference {interior:.4}"
+                ));
             }
         }
     }
@@ -221,8 +173,7 @@ fn every_material_tiles_seamlessly() {
     for name in library::names() {
         let g = load(name);
         let mut ev = Evaluator::new(g.clone(), 64);
-        check_tiles(&mut ev, &g.default_params())
-            .unwrap_or_else(|e| panic!("{name} (defaults): {e}"));
+        check_tiles(&mut ev, &g.default_params()).unwrap_or_else(|e| panic!("{name} (defaults): {e}"));
         let p = random_params(&ev, &mut rng);
         check_tiles(&mut ev, &p).unwrap_or_else(|e| panic!("{name} (random): {e}"));
     }
@@ -246,24 +197,15 @@ fn output_is_bit_identical_on_any_thread_count() {
     for name in ["oak_planks", "marble_white", "stone_wall", "patterned_rug"] {
         let g = load(name);
         let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             pool.install(|| {
                 let mut ev = Evaluator::new(g.clone(), 48);
                 let p = g.default_params();
                 let m = ev.forward(&p).clone();
-                let w: Vec<f32> = (0..48 * 48 * 3)
-                    .map(|i| ((i * 7919) % 13) as f32 - 6.0)
-                    .collect();
+                let w: Vec<f32> = (0..48 * 48 * 3).map(|i| ((i * 7919) % 13) as f32 - 6.0).collect();
                 let mut grad = vec![0.0; g.num_floats()];
                 ev.backward(
-                    &RenderGrads {
-                        albedo_linear: Some(&w),
-                        normal: Some(&w),
-                        ..Default::default()
-                    },
+                    &RenderGrads { albedo_linear: Some(&w), normal: Some(&w), ..Default::default() },
                     &mut grad,
                 );
                 (m.albedo_linear, m.normal, grad)
@@ -272,10 +214,7 @@ fn output_is_bit_identical_on_any_thread_count() {
         let (a1, n1, g1) = run(1);
         for t in [2, 3] {
             let (a, n, g) = run(t);
-            assert!(
-                a1 == a && n1 == n,
-                "{name}: maps differ between 1 and {t} threads"
-            );
+            assert!(a1 == a && n1 == n, "{name}: maps differ between 1 and {t} threads");
             assert!(
                 g1.iter().zip(&g).all(|(x, y)| x.to_bits() == y.to_bits()),
                 "{name}: gradients differ between 1 and {t} threads"

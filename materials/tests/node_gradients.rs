@@ -21,25 +21,17 @@ fn test_graph(kind: &str, choice: Option<(&str, i64)>, seed: u64) -> Value {
     for (j, inp) in spec.inputs.iter().enumerate() {
         let g = format!("g{j}");
         params.push(json!({"name": format!("rough{j}"), "default": 0.5, "min": 0.2, "max": 0.8}));
-        nodes.push(
-            json!({"id": g, "type": "fbm", "params": {"scale_x": 3, "scale_y": 2, "octaves": 3,
-            "seed": seed as i64 + j as i64, "roughness": format!("$rough{j}")}}),
-        );
+        nodes.push(json!({"id": g, "type": "fbm", "params": {"scale_x": 3, "scale_y": 2, "octaves": 3,
+            "seed": seed as i64 + j as i64, "roughness": format!("$rough{j}")}}));
         let src = if inp.channels == Channels::Gray {
             g
         } else {
             let c = format!("c{j}");
-            params.push(
-                json!({"name": format!("lo{j}"), "type": "color", "default": [0.2, 0.3, 0.4]}),
-            );
-            params.push(
-                json!({"name": format!("hi{j}"), "type": "color", "default": [0.8, 0.6, 0.5]}),
-            );
-            nodes.push(
-                json!({"id": c, "type": "gradient_map", "inputs": {"input": g},
+            params.push(json!({"name": format!("lo{j}"), "type": "color", "default": [0.2, 0.3, 0.4]}));
+            params.push(json!({"name": format!("hi{j}"), "type": "color", "default": [0.8, 0.6, 0.5]}));
+            nodes.push(json!({"id": c, "type": "gradient_map", "inputs": {"input": g},
                 "params": {"count": 2, "pos0": 0.2, "pos1": 0.8,
-                           "color0": format!("$lo{j}"), "color1": format!("$hi{j}")}}),
-            );
+                           "color0": format!("$lo{j}"), "color1": format!("$hi{j}")}}));
             c
         };
         inputs.insert(inp.name.to_string(), json!(src));
@@ -74,22 +66,14 @@ fn test_graph(kind: &str, choice: Option<(&str, i64)>, seed: u64) -> Value {
 
 fn loss(ev: &mut Evaluator, p: &psdr_materials::Params, w: &[f64]) -> f64 {
     ev.evaluate(p);
-    ev.node_image("test")
-        .unwrap()
-        .data
-        .iter()
-        .zip(w)
-        .map(|(a, b)| a * b)
-        .sum()
+    ev.node_image("test").unwrap().data.iter().zip(w).map(|(a, b)| a * b).sum()
 }
 
 /// Gradient-map stop positions must stay ascending; sort the random draws.
 fn sort_stops(kind: &str, ev: &Evaluator, p: &mut psdr_materials::Params) {
     if kind == "gradient_map" {
         let g = ev.graph();
-        let mut pos: Vec<f64> = (0..6)
-            .map(|k| p.floats[g.param(&format!("p_pos{k}")).unwrap().offset])
-            .collect();
+        let mut pos: Vec<f64> = (0..6).map(|k| p.floats[g.param(&format!("p_pos{k}")).unwrap().offset]).collect();
         pos.sort_by(|a, b| a.partial_cmp(b).unwrap());
         for (k, v) in pos.into_iter().enumerate() {
             p.floats[g.param(&format!("p_pos{k}")).unwrap().offset] = v;
@@ -130,11 +114,7 @@ fn every_node_backward_matches_finite_differences() {
         }
     }
     assert!(checked >= NODES.len());
-    assert!(
-        failures.is_empty(),
-        "FD mismatches:\n{}",
-        failures.join("\n")
-    );
+    assert!(failures.is_empty(), "FD mismatches:\n{}", failures.join("\n"));
 }
 
 /// A deliberately wrong gradient must fail the checker (guards against a vacuous test).

@@ -8,11 +8,7 @@ use common::Rng;
 use psdr_materials::{library, Evaluator, Params, RenderGrads, RenderMaps};
 
 fn mean_abs(a: &[f32], b: &[f32]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs() as f64)
-        .sum::<f64>()
-        / a.len() as f64
+    a.iter().zip(b).map(|(x, y)| (x - y).abs() as f64).sum::<f64>() / a.len() as f64
 }
 
 /// Starts each parameter uniformly within `window` x its range around the truth
@@ -39,28 +35,17 @@ fn recover(name: &str, seed: u64, iters: usize, n: usize, window: f64) -> (f64, 
         let lr = 0.05 * 0.05f64.powf(it as f64 / iters as f64);
         let maps = ev.forward(&p);
         // L = mean squared error per map; dL/dx = 2 (x - x*) / len.
-        for (d, (x, t)) in ga
-            .iter_mut()
-            .zip(maps.albedo_linear.iter().zip(&target.albedo_linear))
-        {
+        for (d, (x, t)) in ga.iter_mut().zip(maps.albedo_linear.iter().zip(&target.albedo_linear)) {
             *d = 2.0 * (x - t) / (n * n) as f32;
         }
-        for (d, (x, t)) in gr
-            .iter_mut()
-            .zip(maps.roughness.iter().zip(&target.roughness))
-        {
+        for (d, (x, t)) in gr.iter_mut().zip(maps.roughness.iter().zip(&target.roughness)) {
             *d = 2.0 * (x - t) / (n * n) as f32;
         }
         for (d, (x, t)) in gn.iter_mut().zip(maps.normal.iter().zip(&target.normal)) {
             *d = 2.0 * (x - t) / (n * n) as f32;
         }
         let mut grad = vec![0.0; p.floats.len()];
-        let grads = RenderGrads {
-            albedo_linear: Some(&ga),
-            roughness: Some(&gr),
-            normal: Some(&gn),
-            height: None,
-        };
+        let grads = RenderGrads { albedo_linear: Some(&ga), roughness: Some(&gr), normal: Some(&gn), height: None };
         ev.backward(&grads, &mut grad);
         for k in 0..grad.len() {
             let (lo, hi) = ranges[k];
@@ -89,29 +74,20 @@ fn recover(name: &str, seed: u64, iters: usize, n: usize, window: f64) -> (f64, 
 #[test]
 fn adam_recovers_concrete_from_anywhere_in_range() {
     let (a, r, n) = recover("concrete", 3, 500, 32, 1.0);
-    assert!(
-        a < 0.01 && r < 0.01 && n < 0.02,
-        "albedo {a:.4}, roughness {r:.4}, normal {n:.4}"
-    );
+    assert!(a < 0.01 && r < 0.01 && n < 0.02, "albedo {a:.4}, roughness {r:.4}, normal {n:.4}");
 }
 
 /// Ring phase makes wood non-convex in distortion far from the truth: start within +-20%.
 #[test]
 fn adam_recovers_wood_grain_from_a_20_percent_neighbourhood() {
     let (a, r, n) = recover("wood_grain", 3, 500, 32, 0.2);
-    assert!(
-        a < 0.01 && r < 0.01 && n < 0.02,
-        "albedo {a:.4}, roughness {r:.4}, normal {n:.4}"
-    );
+    assert!(a < 0.01 && r < 0.01 && n < 0.02, "albedo {a:.4}, roughness {r:.4}, normal {n:.4}");
 }
 
 #[test]
 fn adam_recovers_wallpaper_stripes_from_anywhere_in_range() {
     let (a, r, n) = recover("wallpaper_stripes", 4, 500, 32, 1.0);
-    assert!(
-        a < 0.01 && r < 0.01 && n < 0.02,
-        "albedo {a:.4}, roughness {r:.4}, normal {n:.4}"
-    );
+    assert!(a < 0.01 && r < 0.01 && n < 0.02, "albedo {a:.4}, roughness {r:.4}, normal {n:.4}");
 }
 
 /// Tile geometry is not convex from anywhere (a very wide mortar is a local minimum
@@ -120,9 +96,6 @@ fn adam_recovers_wallpaper_stripes_from_anywhere_in_range() {
 fn adam_recovers_square_tiles_from_a_30_percent_neighbourhood() {
     for seed in [1, 2, 3] {
         let (a, r, n) = recover("square_tiles", seed, 500, 64, 0.3);
-        assert!(
-            a < 0.01 && r < 0.01 && n < 0.02,
-            "seed {seed}: albedo {a:.4}, roughness {r:.4}, normal {n:.4}"
-        );
+        assert!(a < 0.01 && r < 0.01 && n < 0.02, "seed {seed}: albedo {a:.4}, roughness {r:.4}, normal {n:.4}");
     }
 }

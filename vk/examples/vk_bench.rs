@@ -28,25 +28,16 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let ctx = Context::with_options(&ContextOptions {
-        validation: Some(ValidationMode::Off),
-        ..Default::default()
-    })?;
+    let ctx = Context::with_options(&ContextOptions { validation: Some(ValidationMode::Off), ..Default::default() })?;
     let caps = ctx.capabilities();
-    println!(
-        "device: {} ({:?}, {})",
-        caps.device_name, caps.device_kind, caps.driver_info
-    );
+    println!("device: {} ({:?}, {})", caps.device_name, caps.device_kind, caps.driver_info);
     let saxpy: Kernel<SaxpyPush> = Kernel::new(&ctx, "saxpy", &include_spirv!("saxpy")?, 2)?;
 
     for n in [1usize << 20, 4 << 20, 16 << 20] {
         let x = Buffer::from_slice(&ctx, "x", &vec![1.0f32; n])?;
         let y = Buffer::<f32>::zeroed(&ctx, "y", n)?;
         let groups = Groups::folded_2d(n as u64, 256);
-        let push = SaxpyPush {
-            a: 1.0,
-            n: n as u32,
-        };
+        let push = SaxpyPush { a: 1.0, n: n as u32 };
         let reps = 5;
         let mut gpu = Vec::new();
         for _ in 0..reps {
@@ -54,10 +45,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             gpu.push(t.gpu_ms.unwrap_or(t.wall_ms));
         }
         let out = y.download()?;
-        assert!(
-            out.iter().all(|&v| v == reps as f32),
-            "saxpy result wrong at n = {n}"
-        );
+        assert!(out.iter().all(|&v| v == reps as f32), "saxpy result wrong at n = {n}");
         let host_y: Vec<f32> = vec![0.0; n];
         let t = Instant::now();
         let cpu: Vec<f32> = host_y.iter().map(|y| 1.0f32 * 1.0 + y).collect();
@@ -74,38 +62,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     if caps.float32_atomic_add_buffer {
         let n = 4usize << 20;
-        let histogram: Kernel<HistogramPush> =
-            Kernel::new(&ctx, "histogram", &include_spirv!("histogram")?, 2)?;
+        let histogram: Kernel<HistogramPush> = Kernel::new(&ctx, "histogram", &include_spirv!("histogram")?, 2)?;
         let values = Buffer::from_slice(&ctx, "values", &vec![0.5f32; n])?;
         let hist = Buffer::<f32>::zeroed(&ctx, "hist", 1024)?;
         let t = histogram.dispatch(
             &[&values, &hist],
-            &HistogramPush {
-                n: n as u32,
-                bins: 1024,
-            },
+            &HistogramPush { n: n as u32, bins: 1024 },
             Groups::grid_stride(n as u64, 256, 4096),
         )?;
         let ms = t.gpu_ms.unwrap_or(t.wall_ms);
-        println!(
-            "float atomicAdd, all into one bin (worst case): {:.1} M atomics/s",
-            n as f64 / ms / 1e3
-        );
+        println!("float atomicAdd, all into one bin (worst case): {:.1} M atomics/s", n as f64 / ms / 1e3);
         let spread: Vec<f32> = (0..n).map(|i| (i % 1024) as f32 / 1024.0 + 1e-4).collect();
         let values = Buffer::from_slice(&ctx, "spread", &spread)?;
         let t = histogram.dispatch(
             &[&values, &hist],
-            &HistogramPush {
-                n: n as u32,
-                bins: 1024,
-            },
+            &HistogramPush { n: n as u32, bins: 1024 },
             Groups::grid_stride(n as u64, 256, 4096),
         )?;
         let ms = t.gpu_ms.unwrap_or(t.wall_ms);
-        println!(
-            "float atomicAdd into 1024 bins: {:.1} M atomics/s",
-            n as f64 / ms / 1e3
-        );
+        println!("float atomicAdd into 1024 bins: {:.1} M atomics/s", n as f64 / ms / 1e3);
     }
 
     for staging in [false, true] {
@@ -131,11 +106,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let gb = (n * 4) as f64 / 1e9;
         println!(
             "64 MiB {}: upload {:.2} GB/s, download {:.2} GB/s (medians of 5)",
-            if b.is_host_mapped() {
-                "mapped"
-            } else {
-                "via staging"
-            },
+            if b.is_host_mapped() { "mapped" } else { "via staging" },
             gb / median(up),
             gb / median(down)
         );

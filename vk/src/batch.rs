@@ -14,21 +14,9 @@ use crate::kernel::{Kernel, RawKernel};
 use crate::timing::{CommandTiming, TimestampPool, Timings};
 
 enum Op<'a> {
-    Dispatch {
-        kernel: &'a RawKernel,
-        buffers: Vec<BufferBinding<'a>>,
-        push: Vec<u8>,
-        groups: Groups,
-    },
-    Fill {
-        target: BufferBinding<'a>,
-        value: u32,
-    },
-    Copy {
-        src: BufferBinding<'a>,
-        dst: BufferBinding<'a>,
-        bytes: u64,
-    },
+    Dispatch { kernel: &'a RawKernel, buffers: Vec<BufferBinding<'a>>, push: Vec<u8>, groups: Groups },
+    Fill { target: BufferBinding<'a>, value: u32 },
+    Copy { src: BufferBinding<'a>, dst: BufferBinding<'a>, bytes: u64 },
 }
 
 /// Commands waiting to be submitted. Buffers and kernels stay borrowed until [`Batch::submit`] returns,
@@ -40,10 +28,7 @@ pub struct Batch<'a> {
 
 impl<'a> Batch<'a> {
     pub fn new(ctx: &'a Context) -> Self {
-        Self {
-            ctx,
-            commands: Vec::new(),
-        }
+        Self { ctx, commands: Vec::new() }
     }
 
     /// Adds a dispatch of `kernel` with `buffers[i]` at binding `i`. Checks the buffer count, that every buffer
@@ -56,22 +41,12 @@ impl<'a> Batch<'a> {
         groups: Groups,
     ) -> Result<&mut Self> {
         let raw = &kernel.raw;
-        let bad = |reason: String| VkError::BadDispatch {
-            name: raw.name.clone(),
-            reason,
-        };
+        let bad = |reason: String| VkError::BadDispatch { name: raw.name.clone(), reason };
         if raw.ctx.id() != self.ctx.inner.id() {
-            return Err(VkError::ForeignObject {
-                what: "kernel",
-                name: raw.name.clone(),
-            });
+            return Err(VkError::ForeignObject { what: "kernel", name: raw.name.clone() });
         }
         if buffers.len() != raw.num_buffers as usize {
-            return Err(bad(format!(
-                "takes {} storage buffers, {} given",
-                raw.num_buffers,
-                buffers.len()
-            )));
+            return Err(bad(format!("takes {} storage buffers, {} given", raw.num_buffers, buffers.len())));
         }
         let max = self.ctx.inner.caps.max_compute_work_group_count;
         if groups.x > max[0] || groups.y > max[1] || groups.z > max[2] {
@@ -79,18 +54,10 @@ impl<'a> Batch<'a> {
                 "{groups:?} exceeds maxComputeWorkGroupCount {max:?}; use Groups::folded_2d or a grid-stride loop"
             )));
         }
-        let buffers = buffers
-            .iter()
-            .map(|b| self.own(b.binding()))
-            .collect::<Result<Vec<_>>>()?;
+        let buffers = buffers.iter().map(|b| self.own(b.binding())).collect::<Result<Vec<_>>>()?;
         self.commands.push((
             raw.name.clone(),
-            Op::Dispatch {
-                kernel: raw,
-                buffers,
-                push: bytemuck::bytes_of(push).to_vec(),
-                groups,
-            },
+            Op::Dispatch { kernel: raw, buffers, push: bytemuck::bytes_of(push).to_vec(), groups },
         ));
         Ok(self)
     }
@@ -103,8 +70,7 @@ impl<'a> Batch<'a> {
     /// Adds a fill of the whole buffer with the 32-bit pattern `value` (`f32::to_bits` for floats).
     pub fn fill_u32<T: Pod>(&mut self, buffer: &'a Buffer<T>, value: u32) -> Result<&mut Self> {
         let target = self.own(buffer.binding())?;
-        self.commands
-            .push((format!("fill {}", target.name), Op::Fill { target, value }));
+        self.commands.push((format!("fill {}", target.name), Op::Fill { target, value }));
         Ok(self)
     }
 
@@ -119,14 +85,8 @@ impl<'a> Batch<'a> {
             });
         }
         let (s, d) = (self.own(src.binding())?, self.own(dst.binding())?);
-        self.commands.push((
-            format!("copy {} -> {}", s.name, d.name),
-            Op::Copy {
-                src: s,
-                dst: d,
-                bytes: src.size_bytes(),
-            },
-        ));
+        self.commands
+            .push((format!("copy {} -> {}", s.name, d.name), Op::Copy { src: s, dst: d, bytes: src.size_bytes() }));
         Ok(self)
     }
 
@@ -141,10 +101,7 @@ impl<'a> Batch<'a> {
 
     fn own(&self, b: BufferBinding<'a>) -> Result<BufferBinding<'a>> {
         if b.ctx_id != self.ctx.inner.id() {
-            return Err(VkError::ForeignObject {
-                what: "buffer",
-                name: b.name.into(),
-            });
+            return Err(VkError::ForeignObject { what: "buffer", name: b.name.into() });
         }
         Ok(b)
     }
@@ -201,31 +158,13 @@ fn record_op(d: &ash::Device, cmd: vk::CommandBuffer, op: &Op<'_>, set: Option<v
     // for exactly these buffers; push bytes match the layout's range (the Kernel<P> type guarantees the size).
     unsafe {
         match op {
-            Op::Dispatch {
-                kernel,
-                push,
-                groups,
-                ..
-            } => {
+            Op::Dispatch { kernel, push, groups, .. } => {
                 d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline);
                 if let Some(set) = set {
-                    d.cmd_bind_descriptor_sets(
-                        cmd,
-                        vk::PipelineBindPoint::COMPUTE,
-                        kernel.layout,
-                        0,
-                        &[set],
-                        &[],
-                    );
+                    d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.layout, 0, &[set], &[]);
                 }
                 if !push.is_empty() {
-                    d.cmd_push_constants(
-                        cmd,
-                        kernel.layout,
-                        vk::ShaderStageFlags::COMPUTE,
-                        0,
-                        push,
-                    );
+                    d.cmd_push_constants(cmd, kernel.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
                 }
                 d.cmd_dispatch(cmd, groups.x, groups.y, groups.z);
             }
@@ -255,17 +194,7 @@ fn record_full_barrier(d: &ash::Device, cmd: vk::CommandBuffer) {
                 | vk::AccessFlags::TRANSFER_WRITE,
         );
     // SAFETY: recording state, outside any render pass.
-    unsafe {
-        d.cmd_pipeline_barrier(
-            cmd,
-            stages,
-            stages,
-            vk::DependencyFlags::empty(),
-            &[barrier],
-            &[],
-            &[],
-        )
-    };
+    unsafe { d.cmd_pipeline_barrier(cmd, stages, stages, vk::DependencyFlags::empty(), &[barrier], &[], &[]) };
 }
 
 /// One descriptor set per dispatch, from a pool that lives for one submission.
@@ -278,18 +207,12 @@ struct DescriptorSets<'d> {
 
 impl<'d> DescriptorSets<'d> {
     fn new(device: &'d ash::Device, commands: &[(String, Op<'_>)]) -> Result<Self> {
-        let mut this = Self {
-            device,
-            pool: vk::DescriptorPool::null(),
-            sets: vec![None; commands.len()],
-        };
+        let mut this = Self { device, pool: vk::DescriptorPool::null(), sets: vec![None; commands.len()] };
         let users: Vec<(usize, &RawKernel, &[BufferBinding<'_>])> = commands
             .iter()
             .enumerate()
             .filter_map(|(i, (_, op))| match op {
-                Op::Dispatch {
-                    kernel, buffers, ..
-                } if !buffers.is_empty() => Some((i, *kernel, buffers.as_slice())),
+                Op::Dispatch { kernel, buffers, .. } if !buffers.is_empty() => Some((i, *kernel, buffers.as_slice())),
                 _ => None,
             })
             .collect();
@@ -297,42 +220,22 @@ impl<'d> DescriptorSets<'d> {
             return Ok(this);
         }
         let total: u32 = users.iter().map(|(_, _, b)| b.len() as u32).sum();
-        let sizes = [vk::DescriptorPoolSize::default()
-            .ty(vk::DescriptorType::STORAGE_BUFFER)
-            .descriptor_count(total)];
-        let pool_info = vk::DescriptorPoolCreateInfo::default()
-            .max_sets(users.len() as u32)
-            .pool_sizes(&sizes);
+        let sizes = [vk::DescriptorPoolSize::default().ty(vk::DescriptorType::STORAGE_BUFFER).descriptor_count(total)];
+        let pool_info = vk::DescriptorPoolCreateInfo::default().max_sets(users.len() as u32).pool_sizes(&sizes);
         // SAFETY: valid device and create info.
-        this.pool =
-            unsafe { device.create_descriptor_pool(&pool_info, None) }.map_err(|result| {
-                VkError::Vulkan {
-                    call: "vkCreateDescriptorPool",
-                    result,
-                }
-            })?;
+        this.pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
+            .map_err(|result| VkError::Vulkan { call: "vkCreateDescriptorPool", result })?;
         let layouts: Vec<_> = users.iter().map(|(_, k, _)| k.set_layout).collect();
-        let alloc = vk::DescriptorSetAllocateInfo::default()
-            .descriptor_pool(this.pool)
-            .set_layouts(&layouts);
+        let alloc = vk::DescriptorSetAllocateInfo::default().descriptor_pool(this.pool).set_layouts(&layouts);
         // SAFETY: the pool was sized for exactly these sets.
-        let sets = unsafe { device.allocate_descriptor_sets(&alloc) }.map_err(|result| {
-            VkError::Vulkan {
-                call: "vkAllocateDescriptorSets",
-                result,
-            }
-        })?;
+        let sets = unsafe { device.allocate_descriptor_sets(&alloc) }
+            .map_err(|result| VkError::Vulkan { call: "vkAllocateDescriptorSets", result })?;
         let infos: Vec<Vec<vk::DescriptorBufferInfo>> = users
             .iter()
             .map(|(_, _, buffers)| {
                 buffers
                     .iter()
-                    .map(|b| {
-                        vk::DescriptorBufferInfo::default()
-                            .buffer(b.handle)
-                            .offset(0)
-                            .range(b.range)
-                    })
+                    .map(|b| vk::DescriptorBufferInfo::default().buffer(b.handle).offset(0).range(b.range))
                     .collect()
             })
             .collect();

@@ -34,17 +34,10 @@ impl RawBuffer {
         let bytes = data_bytes.max(4).next_multiple_of(4);
         let max = ctx.caps.max_storage_buffer_range;
         if usage.contains(vk::BufferUsageFlags::STORAGE_BUFFER) && bytes > max {
-            return Err(VkError::BufferTooLarge {
-                name: name.into(),
-                bytes,
-                max,
-            });
+            return Err(VkError::BufferTooLarge { name: name.into(), bytes, max });
         }
         let d = &ctx.device;
-        let info = vk::BufferCreateInfo::default()
-            .size(bytes)
-            .usage(usage)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let info = vk::BufferCreateInfo::default().size(bytes).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
         // SAFETY: valid device and create info.
         let handle = unsafe { d.create_buffer(&info, None) }.call("vkCreateBuffer")?;
         // SAFETY: `handle` was just created on this device.
@@ -61,34 +54,21 @@ impl RawBuffer {
             Err(source) => {
                 // SAFETY: unbound, unused buffer.
                 unsafe { d.destroy_buffer(handle, None) };
-                return Err(VkError::Allocation {
-                    name: name.into(),
-                    source,
-                });
+                return Err(VkError::Allocation { name: name.into(), source });
             }
         };
         // Constructed before binding so that Drop cleans up if binding fails.
-        let raw = Self {
-            ctx: ctx.clone(),
-            handle,
-            allocation: Some(allocation),
-            bytes,
-            name: name.into(),
-        };
+        let raw = Self { ctx: ctx.clone(), handle, allocation: Some(allocation), bytes, name: name.into() };
         let a = raw.allocation.as_ref().expect("just set");
         // SAFETY: memory from the allocator satisfies `requirements`; offset is the allocation's own.
-        unsafe { d.bind_buffer_memory(handle, a.memory(), a.offset()) }
-            .call("vkBindBufferMemory")?;
+        unsafe { d.bind_buffer_memory(handle, a.memory(), a.offset()) }.call("vkBindBufferMemory")?;
         Ok(raw)
     }
 
     /// Host pointer to the buffer's bytes when its memory is mapped and coherent (no flushes needed).
     pub(crate) fn mapped(&self) -> Option<*mut u8> {
         let a = self.allocation.as_ref()?;
-        if !a
-            .memory_properties()
-            .contains(vk::MemoryPropertyFlags::HOST_COHERENT)
-        {
+        if !a.memory_properties().contains(vk::MemoryPropertyFlags::HOST_COHERENT) {
             return None;
         }
         a.mapped_ptr().map(|p| p.as_ptr().cast::<u8>())
@@ -108,18 +88,10 @@ impl RawBuffer {
             MemoryLocation::CpuToGpu => vk::BufferUsageFlags::TRANSFER_SRC,
             _ => vk::BufferUsageFlags::TRANSFER_DST,
         };
-        let staging = RawBuffer::new(
-            &self.ctx,
-            &format!("{} (staging)", self.name),
-            bytes,
-            location,
-            usage,
-        )?;
+        let staging = RawBuffer::new(&self.ctx, &format!("{} (staging)", self.name), bytes, location, usage)?;
         let ptr = staging.mapped().ok_or_else(|| VkError::Allocation {
             name: staging.name.clone(),
-            source: gpu_allocator::AllocationError::FailedToMap(
-                "staging memory is not host-coherent".into(),
-            ),
+            source: gpu_allocator::AllocationError::FailedToMap("staging memory is not host-coherent".into()),
         })?;
         Ok((staging, ptr))
     }
@@ -132,18 +104,13 @@ impl RawBuffer {
         if let Some(ptr) = self.direct() {
             // SAFETY: `offset + src.len() <= bytes` (checked by the caller) inside a live mapping; `&mut self`
             // means no batch borrows this buffer, and submissions are waited for, so the GPU is not using it.
-            unsafe {
-                std::ptr::copy_nonoverlapping(src.as_ptr(), ptr.add(offset as usize), src.len())
-            };
+            unsafe { std::ptr::copy_nonoverlapping(src.as_ptr(), ptr.add(offset as usize), src.len()) };
             return Ok(());
         }
         let (staging, ptr) = self.staging(src.len() as u64, MemoryLocation::CpuToGpu)?;
         // SAFETY: the staging mapping holds at least `src.len()` bytes and nothing else uses it yet.
         unsafe { std::ptr::copy_nonoverlapping(src.as_ptr(), ptr, src.len()) };
-        let region = vk::BufferCopy::default()
-            .src_offset(0)
-            .dst_offset(offset)
-            .size(src.len() as u64);
+        let region = vk::BufferCopy::default().src_offset(0).dst_offset(offset).size(src.len() as u64);
         self.ctx.submit_and_wait(|d, cmd| {
             // SAFETY: both buffers are live and large enough for `region`.
             unsafe { d.cmd_copy_buffer(cmd, staging.handle, self.handle, &[region]) };
@@ -159,16 +126,11 @@ impl RawBuffer {
         if let Some(ptr) = self.direct() {
             // SAFETY: range inside a live mapping (checked by the caller); every submission is waited for and ends
             // with a host-read barrier, so device writes are visible.
-            unsafe {
-                std::ptr::copy_nonoverlapping(ptr.add(offset as usize), dst.as_mut_ptr(), dst.len())
-            };
+            unsafe { std::ptr::copy_nonoverlapping(ptr.add(offset as usize), dst.as_mut_ptr(), dst.len()) };
             return Ok(());
         }
         let (staging, ptr) = self.staging(dst.len() as u64, MemoryLocation::GpuToCpu)?;
-        let region = vk::BufferCopy::default()
-            .src_offset(offset)
-            .dst_offset(0)
-            .size(dst.len() as u64);
+        let region = vk::BufferCopy::default().src_offset(offset).dst_offset(0).size(dst.len() as u64);
         self.ctx.submit_and_wait(|d, cmd| {
             // SAFETY: both buffers are live and large enough for `region`.
             unsafe { d.cmd_copy_buffer(cmd, self.handle, staging.handle, &[region]) };
@@ -273,10 +235,7 @@ impl<T: Pod> Buffer<T> {
     /// Writes `data` starting at element `first`.
     pub fn upload_at(&mut self, first: usize, data: &[T]) -> Result<()> {
         self.check_range("upload_at", first, data.len())?;
-        self.raw.write_bytes(
-            (first * std::mem::size_of::<T>()) as u64,
-            bytemuck::cast_slice(data),
-        )
+        self.raw.write_bytes((first * std::mem::size_of::<T>()) as u64, bytemuck::cast_slice(data))
     }
 
     /// Reads the whole contents.
@@ -296,10 +255,7 @@ impl<T: Pod> Buffer<T> {
     pub fn download_range(&self, first: usize, count: usize) -> Result<Vec<T>> {
         self.check_range("download_range", first, count)?;
         let mut out = vec![T::zeroed(); count];
-        self.raw.read_bytes(
-            (first * std::mem::size_of::<T>()) as u64,
-            bytemuck::cast_slice_mut(&mut out),
-        )?;
+        self.raw.read_bytes((first * std::mem::size_of::<T>()) as u64, bytemuck::cast_slice_mut(&mut out))?;
         Ok(out)
     }
 
@@ -310,12 +266,7 @@ impl<T: Pod> Buffer<T> {
 
     fn check_len(&self, what: &'static str, expected: usize, got: usize) -> Result<()> {
         if expected != got {
-            return Err(VkError::LengthMismatch {
-                name: self.raw.name.clone(),
-                what,
-                expected,
-                got,
-            });
+            return Err(VkError::LengthMismatch { name: self.raw.name.clone(), what, expected, got });
         }
         Ok(())
     }

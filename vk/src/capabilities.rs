@@ -60,11 +60,9 @@ impl Capabilities {
         let raw = &instance.raw;
         let pd = candidate.physical;
         // SAFETY: `pd` was enumerated from this instance (a 1.2 instance, so the *2 queries exist).
-        let extensions =
-            unsafe { raw.enumerate_device_extension_properties(pd) }.unwrap_or_default();
-        let atomic_float_extension = extensions
-            .iter()
-            .any(|e| e.extension_name_as_c_str() == Ok(ext::shader_atomic_float::NAME));
+        let extensions = unsafe { raw.enumerate_device_extension_properties(pd) }.unwrap_or_default();
+        let atomic_float_extension =
+            extensions.iter().any(|e| e.extension_name_as_c_str() == Ok(ext::shader_atomic_float::NAME));
 
         let mut atomic = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default();
         let mut v12 = vk::PhysicalDeviceVulkan12Features::default();
@@ -78,9 +76,7 @@ impl Capabilities {
 
         let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
         let mut driver = vk::PhysicalDeviceDriverProperties::default();
-        let mut props2 = vk::PhysicalDeviceProperties2::default()
-            .push_next(&mut subgroup)
-            .push_next(&mut driver);
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut subgroup).push_next(&mut driver);
         // SAFETY: as above.
         unsafe { raw.get_physical_device_properties2(pd, &mut props2) };
         let props = props2.properties;
@@ -88,17 +84,14 @@ impl Capabilities {
         // SAFETY: valid physical device.
         let memory = unsafe { raw.get_physical_device_memory_properties(pd) };
         let unified_memory = memory.memory_types_as_slice().iter().all(|t| {
-            !t.property_flags
-                .contains(vk::MemoryPropertyFlags::DEVICE_LOCAL)
-                || t.property_flags.contains(
-                    vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
-                )
+            !t.property_flags.contains(vk::MemoryPropertyFlags::DEVICE_LOCAL)
+                || t.property_flags
+                    .contains(vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT)
         });
 
         let on = |b: vk::Bool32| b == vk::TRUE;
         let cstr = |r: Result<&std::ffi::CStr, _>| {
-            r.map(|s: &std::ffi::CStr| s.to_string_lossy().into_owned())
-                .unwrap_or_default()
+            r.map(|s: &std::ffi::CStr| s.to_string_lossy().into_owned()).unwrap_or_default()
         };
         Capabilities {
             device_name: candidate.info.name.clone(),
@@ -107,14 +100,10 @@ impl Capabilities {
             driver_name: cstr(driver.driver_name_as_c_str()),
             driver_info: cstr(driver.driver_info_as_c_str()),
             atomic_float_extension,
-            float32_atomic_add_buffer: atomic_float_extension
-                && on(atomic.shader_buffer_float32_atomic_add),
-            float32_atomic_buffer: atomic_float_extension
-                && on(atomic.shader_buffer_float32_atomics),
-            float32_atomic_add_shared: atomic_float_extension
-                && on(atomic.shader_shared_float32_atomic_add),
-            float32_atomic_shared: atomic_float_extension
-                && on(atomic.shader_shared_float32_atomics),
+            float32_atomic_add_buffer: atomic_float_extension && on(atomic.shader_buffer_float32_atomic_add),
+            float32_atomic_buffer: atomic_float_extension && on(atomic.shader_buffer_float32_atomics),
+            float32_atomic_add_shared: atomic_float_extension && on(atomic.shader_shared_float32_atomic_add),
+            float32_atomic_shared: atomic_float_extension && on(atomic.shader_shared_float32_atomics),
             scalar_block_layout: on(v12.scalar_block_layout),
             shader_int64: on(core.shader_int64),
             shader_float64: on(core.shader_float64),

@@ -64,10 +64,7 @@ impl Context {
     pub fn with_options(options: &ContextOptions) -> Result<Self> {
         let validation = options.validation.unwrap_or_else(ValidationMode::from_env);
         let instance = Instance::new(validation)?;
-        let wanted = options
-            .device
-            .clone()
-            .or_else(|| std::env::var(DEVICE_ENV).ok().filter(|s| !s.is_empty()));
+        let wanted = options.device.clone().or_else(|| std::env::var(DEVICE_ENV).ok().filter(|s| !s.is_empty()));
         let candidate = select(enumerate(&instance)?, wanted.as_deref())?;
         let caps = Capabilities::probe(&instance, &candidate);
         let device = create_logical_device(&instance, &candidate, &caps)?;
@@ -86,12 +83,8 @@ impl Context {
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: valid device and create infos.
         unsafe {
-            partial.pool = device
-                .create_command_pool(&pool_info, None)
-                .call("vkCreateCommandPool")?;
-            partial.fence = device
-                .create_fence(&vk::FenceCreateInfo::default(), None)
-                .call("vkCreateFence")?;
+            partial.pool = device.create_command_pool(&pool_info, None).call("vkCreateCommandPool")?;
+            partial.fence = device.create_fence(&vk::FenceCreateInfo::default(), None).call("vkCreateFence")?;
             partial.cache = device
                 .create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None)
                 .call("vkCreatePipelineCache")?;
@@ -101,8 +94,7 @@ impl Context {
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
         // SAFETY: valid pool.
-        let cmd = unsafe { device.allocate_command_buffers(&alloc_info) }
-            .call("vkAllocateCommandBuffers")?[0];
+        let cmd = unsafe { device.allocate_command_buffers(&alloc_info) }.call("vkAllocateCommandBuffers")?[0];
 
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: instance.raw.clone(),
@@ -112,10 +104,7 @@ impl Context {
             buffer_device_address: false,
             allocation_sizes: AllocationSizes::default(),
         })
-        .map_err(|source| VkError::Allocation {
-            name: "allocator".into(),
-            source,
-        })?;
+        .map_err(|source| VkError::Allocation { name: "allocator".into(), source })?;
 
         let (pool, fence, pipeline_cache) = (partial.pool, partial.fence, partial.cache);
         std::mem::forget(partial);
@@ -125,12 +114,7 @@ impl Context {
                 caps,
                 force_staging: options.force_staging,
                 pipeline_cache,
-                submitter: Mutex::new(Submitter {
-                    queue,
-                    pool,
-                    cmd,
-                    fence,
-                }),
+                submitter: Mutex::new(Submitter { queue, pool, cmd, fence }),
                 allocator: ManuallyDrop::new(Mutex::new(allocator)),
                 instance,
             }),
@@ -178,9 +162,7 @@ impl Context {
             Severity::Error => vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
             Severity::Warning => vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
         };
-        self.inner
-            .instance
-            .submit_message(flag, c"psdr-vk self-test message");
+        self.inner.instance.submit_message(flag, c"psdr-vk self-test message");
     }
 
     /// Waits until the device has finished all work.
@@ -220,14 +202,11 @@ impl ContextInner {
         let submitter = self.lock_submitter();
         let d = &self.device;
         let cmd = submitter.cmd;
-        let begin = vk::CommandBufferBeginInfo::default()
-            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
         // SAFETY: the command buffer is not in use (the previous submission was waited for, we hold the lock).
         unsafe {
-            d.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())
-                .call("vkResetCommandBuffer")?;
-            d.begin_command_buffer(cmd, &begin)
-                .call("vkBeginCommandBuffer")?;
+            d.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).call("vkResetCommandBuffer")?;
+            d.begin_command_buffer(cmd, &begin).call("vkBeginCommandBuffer")?;
         }
         let recorded = record(d, cmd).map(|()| {
             // Make this submission's device writes visible to the host and to later submissions.
@@ -264,11 +243,8 @@ impl ContextInner {
         let submit = vk::SubmitInfo::default().command_buffers(&cmds);
         // SAFETY: recorded command buffer, unsignalled fence, queue externally synchronised by the lock.
         unsafe {
-            d.queue_submit(submitter.queue, &[submit], submitter.fence)
-                .call("vkQueueSubmit")?;
-            let waited = d
-                .wait_for_fences(&[submitter.fence], true, u64::MAX)
-                .call("vkWaitForFences");
+            d.queue_submit(submitter.queue, &[submit], submitter.fence).call("vkQueueSubmit")?;
+            let waited = d.wait_for_fences(&[submitter.fence], true, u64::MAX).call("vkWaitForFences");
             d.reset_fences(&[submitter.fence]).call("vkResetFences")?;
             waited
         }
@@ -285,8 +261,7 @@ impl Drop for ContextInner {
             let _ = self.device.device_wait_idle();
             self.device.destroy_fence(submitter.fence, None);
             self.device.destroy_command_pool(submitter.pool, None);
-            self.device
-                .destroy_pipeline_cache(self.pipeline_cache, None);
+            self.device.destroy_pipeline_cache(self.pipeline_cache, None);
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);
         }

@@ -60,17 +60,14 @@ pub fn list_devices() -> Result<Vec<DeviceInfo>> {
 
 pub(crate) fn enumerate(instance: &Instance) -> Result<Vec<Candidate>> {
     // SAFETY: valid instance.
-    let physicals =
-        unsafe { instance.raw.enumerate_physical_devices() }.call("vkEnumeratePhysicalDevices")?;
+    let physicals = unsafe { instance.raw.enumerate_physical_devices() }.call("vkEnumeratePhysicalDevices")?;
     let mut out = Vec::with_capacity(physicals.len());
     for physical in physicals {
         // SAFETY: `physical` was just enumerated from this instance.
         let (props, families) = unsafe {
             (
                 instance.raw.get_physical_device_properties(physical),
-                instance
-                    .raw
-                    .get_physical_device_queue_family_properties(physical),
+                instance.raw.get_physical_device_queue_family_properties(physical),
             )
         };
         let name = props
@@ -102,11 +99,7 @@ pub(crate) fn enumerate(instance: &Instance) -> Result<Vec<Candidate>> {
             info: DeviceInfo {
                 name,
                 kind: props.device_type.into(),
-                api_version: (
-                    vk::api_version_major(v),
-                    vk::api_version_minor(v),
-                    vk::api_version_patch(v),
-                ),
+                api_version: (vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
                 unusable_because,
             },
             queue_family,
@@ -120,9 +113,7 @@ pub(crate) fn enumerate(instance: &Instance) -> Result<Vec<Candidate>> {
 /// capable kind (discrete, integrated, virtual, CPU), first enumerated among equals.
 pub(crate) fn select(candidates: Vec<Candidate>, wanted: Option<&str>) -> Result<Candidate> {
     if candidates.is_empty() {
-        return Err(VkError::NoDevice {
-            detail: " (the loader found no physical device)".into(),
-        });
+        return Err(VkError::NoDevice { detail: " (the loader found no physical device)".into() });
     }
     let describe = |c: &Candidate| match &c.info.unusable_because {
         None => format!("{} ({:?})", c.info.name, c.info.kind),
@@ -132,15 +123,10 @@ pub(crate) fn select(candidates: Vec<Candidate>, wanted: Option<&str>) -> Result
     let mut matching: Vec<Candidate> = match wanted {
         Some(w) => {
             let w_lower = w.to_lowercase();
-            let m: Vec<Candidate> = candidates
-                .into_iter()
-                .filter(|c| c.info.name.to_lowercase().contains(&w_lower))
-                .collect();
+            let m: Vec<Candidate> =
+                candidates.into_iter().filter(|c| c.info.name.to_lowercase().contains(&w_lower)).collect();
             if m.is_empty() {
-                return Err(VkError::DeviceNotFound {
-                    wanted: w.to_string(),
-                    available,
-                });
+                return Err(VkError::DeviceNotFound { wanted: w.to_string(), available });
             }
             m
         }
@@ -152,9 +138,7 @@ pub(crate) fn select(candidates: Vec<Candidate>, wanted: Option<&str>) -> Result
     matching
         .into_iter()
         .next()
-        .ok_or_else(|| VkError::NoDevice {
-            detail: format!(" (found: {})", available.join(", ")),
-        })
+        .ok_or_else(|| VkError::NoDevice { detail: format!(" (found: {})", available.join(", ")) })
 }
 
 /// Creates the logical device with one compute queue and the optional features `caps` says are present.
@@ -164,9 +148,8 @@ pub(crate) fn create_logical_device(
     caps: &Capabilities,
 ) -> Result<ash::Device> {
     let priorities = [1.0f32];
-    let queues = [vk::DeviceQueueCreateInfo::default()
-        .queue_family_index(candidate.queue_family)
-        .queue_priorities(&priorities)];
+    let queues =
+        [vk::DeviceQueueCreateInfo::default().queue_family_index(candidate.queue_family).queue_priorities(&priorities)];
 
     let mut extensions = Vec::new();
     let mut atomic_float = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default()
@@ -174,12 +157,9 @@ pub(crate) fn create_logical_device(
         .shader_buffer_float32_atomic_add(caps.float32_atomic_add_buffer)
         .shader_shared_float32_atomics(caps.float32_atomic_shared)
         .shader_shared_float32_atomic_add(caps.float32_atomic_add_shared);
-    let mut v12 =
-        vk::PhysicalDeviceVulkan12Features::default().scalar_block_layout(caps.scalar_block_layout);
+    let mut v12 = vk::PhysicalDeviceVulkan12Features::default().scalar_block_layout(caps.scalar_block_layout);
     let features = vk::PhysicalDeviceFeatures::default().shader_int64(caps.shader_int64);
-    let mut features2 = vk::PhysicalDeviceFeatures2::default()
-        .features(features)
-        .push_next(&mut v12);
+    let mut features2 = vk::PhysicalDeviceFeatures2::default().features(features).push_next(&mut v12);
     if caps.atomic_float_extension {
         extensions.push(ext::shader_atomic_float::NAME.as_ptr());
         features2 = features2.push_next(&mut atomic_float);
@@ -189,10 +169,5 @@ pub(crate) fn create_logical_device(
         .enabled_extension_names(&extensions)
         .push_next(&mut features2);
     // SAFETY: valid physical device; every pointer in `create` borrows locals that outlive the call.
-    unsafe {
-        instance
-            .raw
-            .create_device(candidate.physical, &create, None)
-    }
-    .call("vkCreateDevice")
+    unsafe { instance.raw.create_device(candidate.physical, &create, None) }.call("vkCreateDevice")
 }

@@ -19,10 +19,7 @@ pub enum VkError {
 
     /// A device was requested by name (`PSDR_VK_DEVICE` or the API) and none matched.
     #[error("no Vulkan device name contains {wanted:?}; available devices: [{}]", available.join(", "))]
-    DeviceNotFound {
-        wanted: String,
-        available: Vec<String>,
-    },
+    DeviceNotFound { wanted: String, available: Vec<String> },
 
     /// Validation was explicitly required (`PSDR_VK_VALIDATION=1`) but the layer is not installed.
     #[error("validation requested but VK_LAYER_KHRONOS_validation is not installed; `apt-get install vulkan-validationlayers`, or set PSDR_VK_VALIDATION=0")]
@@ -30,10 +27,7 @@ pub enum VkError {
 
     /// A Vulkan call returned an error code.
     #[error("{call} failed: {result}")]
-    Vulkan {
-        call: &'static str,
-        result: vk::Result,
-    },
+    Vulkan { call: &'static str, result: vk::Result },
 
     /// gpu-allocator could not provide memory.
     #[error("memory allocation for {name:?} failed: {source}")]
@@ -49,12 +43,7 @@ pub enum VkError {
 
     /// Host data and buffer disagree in length.
     #[error("buffer {name:?}: {what}: expected {expected} elements, got {got}")]
-    LengthMismatch {
-        name: String,
-        what: &'static str,
-        expected: usize,
-        got: usize,
-    },
+    LengthMismatch { name: String, what: &'static str, expected: usize, got: usize },
 
     /// The SPIR-V given to a kernel is not SPIR-V.
     #[error("kernel {name:?}: invalid SPIR-V: {reason}")]

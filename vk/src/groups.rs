@@ -25,11 +25,7 @@ impl Groups {
     /// One invocation per pixel of a `width` x `height` image with `local_size_x/y = local`;
     /// the kernel must skip `gl_GlobalInvocationID.xy` outside the image.
     pub fn covering_image(width: u32, height: u32, local: [u32; 2]) -> Self {
-        Self::new(
-            width.div_ceil(local[0].max(1)),
-            height.div_ceil(local[1].max(1)),
-            1,
-        )
+        Self::new(width.div_ceil(local[0].max(1)), height.div_ceil(local[1].max(1)), 1)
     }
 
     /// For a grid-stride loop over `n` items: enough groups of `local` invocations to give each item its own
@@ -63,17 +59,11 @@ mod tests {
     fn folded_covers_and_stays_in_limits() {
         for n in [1u64, 255, 256, 257, 16 << 20, (16 << 20) + 1, 1 << 32] {
             let g = Groups::folded_2d(n, 256);
-            assert!(
-                g.x <= GUARANTEED_MAX_GROUPS && g.y <= GUARANTEED_MAX_GROUPS,
-                "{n}: {g:?}"
-            );
+            assert!(g.x <= GUARANTEED_MAX_GROUPS && g.y <= GUARANTEED_MAX_GROUPS, "{n}: {g:?}");
             assert!(g.count() * 256 >= n, "{n}: {g:?}");
         }
         assert_eq!(Groups::covering_image(17, 9, [8, 8]), Groups::new(3, 2, 1));
-        assert_eq!(
-            Groups::grid_stride(1 << 30, 256, 4096),
-            Groups::linear(4096)
-        );
+        assert_eq!(Groups::grid_stride(1 << 30, 256, 4096), Groups::linear(4096));
         assert_eq!(Groups::grid_stride(0, 256, 4096), Groups::linear(1));
     }
 }

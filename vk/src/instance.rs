@@ -6,9 +6,7 @@ use std::sync::{Arc, Mutex};
 use ash::{ext, vk};
 
 use crate::error::{Result, VkError, VkResultExt};
-use crate::validation::{
-    messenger_info, MessageLog, ValidationMessage, ValidationMode, VALIDATION_LAYER,
-};
+use crate::validation::{messenger_info, MessageLog, ValidationMessage, ValidationMode, VALIDATION_LAYER};
 
 /// Lowest Vulkan version we use: kernels are compiled with `--target-env vulkan1.2` (SPIR-V 1.5).
 pub(crate) const API_VERSION: u32 = vk::API_VERSION_1_2;
@@ -25,9 +23,7 @@ pub(crate) struct Instance {
 impl Instance {
     pub(crate) fn new(mode: ValidationMode) -> Result<Self> {
         // SAFETY: loading libvulkan runs its initialisers; the Vulkan loader is designed to be loaded this way.
-        let entry = unsafe { ash::Entry::load() }.map_err(|e| VkError::LoaderMissing {
-            reason: e.to_string(),
-        })?;
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| VkError::LoaderMissing { reason: e.to_string() })?;
 
         // SAFETY: plain global query on a loaded entry.
         let loader_version = unsafe { entry.try_enumerate_instance_version() }
@@ -59,18 +55,10 @@ impl Instance {
                 || extension_present(&entry, Some(VALIDATION_LAYER), ext::debug_utils::NAME)?);
 
         // Synchronization validation catches missing barriers between passes; cheap for compute-only work.
-        let validation_features = validation
-            && extension_present(
-                &entry,
-                Some(VALIDATION_LAYER),
-                ext::validation_features::NAME,
-            )?;
+        let validation_features =
+            validation && extension_present(&entry, Some(VALIDATION_LAYER), ext::validation_features::NAME)?;
 
-        let layers: Vec<*const std::ffi::c_char> = if validation {
-            vec![VALIDATION_LAYER.as_ptr()]
-        } else {
-            vec![]
-        };
+        let layers: Vec<*const std::ffi::c_char> = if validation { vec![VALIDATION_LAYER.as_ptr()] } else { vec![] };
         let mut extensions: Vec<*const std::ffi::c_char> = Vec::new();
         if debug_utils {
             extensions.push(ext::debug_utils::NAME.as_ptr());
@@ -80,10 +68,8 @@ impl Instance {
         }
 
         let log: MessageLog = Arc::new(Mutex::new(Vec::new()));
-        let app = vk::ApplicationInfo::default()
-            .application_name(c"psdr")
-            .engine_name(c"psdr-vk")
-            .api_version(API_VERSION);
+        let app =
+            vk::ApplicationInfo::default().application_name(c"psdr").engine_name(c"psdr-vk").api_version(API_VERSION);
         // Chaining the messenger info also reports problems inside vkCreateInstance/vkDestroyInstance.
         let mut chained_messenger = messenger_info(&log);
         let mut create = vk::InstanceCreateInfo::default()
@@ -94,22 +80,17 @@ impl Instance {
             create = create.push_next(&mut chained_messenger);
         }
         let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
-        let mut features =
-            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
+        let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
         if validation_features {
             create = create.push_next(&mut features);
         }
         // SAFETY: every pointer in `create` borrows locals that outlive the call; `log` outlives the instance.
-        let raw =
-            unsafe { entry.create_instance(&create, None) }.map_err(|result| match result {
-                vk::Result::ERROR_INCOMPATIBLE_DRIVER => VkError::NoDevice {
-                    detail: " (no Vulkan driver (ICD) is installed)".into(),
-                },
-                result => VkError::Vulkan {
-                    call: "vkCreateInstance",
-                    result,
-                },
-            })?;
+        let raw = unsafe { entry.create_instance(&create, None) }.map_err(|result| match result {
+            vk::Result::ERROR_INCOMPATIBLE_DRIVER => {
+                VkError::NoDevice { detail: " (no Vulkan driver (ICD) is installed)".into() }
+            }
+            result => VkError::Vulkan { call: "vkCreateInstance", result },
+        })?;
 
         let messenger = if debug_utils {
             let loader = ext::debug_utils::Instance::new(&entry, &raw);
@@ -119,22 +100,14 @@ impl Instance {
                 Err(result) => {
                     // SAFETY: nothing else was created from this instance yet.
                     unsafe { raw.destroy_instance(None) };
-                    return Err(VkError::Vulkan {
-                        call: "vkCreateDebugUtilsMessengerEXT",
-                        result,
-                    });
+                    return Err(VkError::Vulkan { call: "vkCreateDebugUtilsMessengerEXT", result });
                 }
             }
         } else {
             None
         };
 
-        Ok(Self {
-            raw,
-            messenger,
-            log,
-            _entry: entry,
-        })
+        Ok(Self { raw, messenger, log, _entry: entry })
     }
 
     /// True when the validation layer's messages are being collected.
@@ -143,22 +116,13 @@ impl Instance {
     }
 
     /// Sends a message through debug-utils as a layer would (used to prove the collection works).
-    pub(crate) fn submit_message(
-        &self,
-        severity: vk::DebugUtilsMessageSeverityFlagsEXT,
-        text: &CStr,
-    ) {
+    pub(crate) fn submit_message(&self, severity: vk::DebugUtilsMessageSeverityFlagsEXT, text: &CStr) {
         if let Some((loader, _)) = &self.messenger {
-            let data = vk::DebugUtilsMessengerCallbackDataEXT::default()
-                .message_id_name(c"psdr-vk-self-test")
-                .message(text);
+            let data =
+                vk::DebugUtilsMessengerCallbackDataEXT::default().message_id_name(c"psdr-vk-self-test").message(text);
             // SAFETY: valid instance and messenger; `data` borrows locals that outlive the call.
             unsafe {
-                loader.submit_debug_utils_message(
-                    severity,
-                    vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION,
-                    &data,
-                )
+                loader.submit_debug_utils_message(severity, vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION, &data)
             };
         }
     }
@@ -182,8 +146,7 @@ impl Drop for Instance {
 
 fn layer_present(entry: &ash::Entry, name: &CStr) -> Result<bool> {
     // SAFETY: plain global query on a loaded entry.
-    let layers = unsafe { entry.enumerate_instance_layer_properties() }
-        .call("vkEnumerateInstanceLayerProperties")?;
+    let layers = unsafe { entry.enumerate_instance_layer_properties() }.call("vkEnumerateInstanceLayerProperties")?;
     Ok(layers.iter().any(|l| l.layer_name_as_c_str() == Ok(name)))
 }
 

@@ -44,10 +44,7 @@ impl<P: Pod> Kernel<P> {
         check_spirv(name, spirv)?;
         let inner = &ctx.inner;
         let caps = &inner.caps;
-        let bad = |reason: String| VkError::BadDispatch {
-            name: name.into(),
-            reason,
-        };
+        let bad = |reason: String| VkError::BadDispatch { name: name.into(), reason };
         let push_bytes = std::mem::size_of::<P>();
         if !push_bytes.is_multiple_of(4) || push_bytes > caps.max_push_constants_size as usize {
             return Err(bad(format!(
@@ -83,8 +80,8 @@ impl<P: Pod> Kernel<P> {
             .collect();
         let set_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
         // SAFETY: valid device and create info; `raw` destroys what was made if a later step fails.
-        raw.set_layout = unsafe { d.create_descriptor_set_layout(&set_info, None) }
-            .call("vkCreateDescriptorSetLayout")?;
+        raw.set_layout =
+            unsafe { d.create_descriptor_set_layout(&set_info, None) }.call("vkCreateDescriptorSetLayout")?;
 
         let ranges = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::COMPUTE)
@@ -96,36 +93,25 @@ impl<P: Pod> Kernel<P> {
             layout_info = layout_info.push_constant_ranges(&ranges);
         }
         // SAFETY: as above.
-        raw.layout = unsafe { d.create_pipeline_layout(&layout_info, None) }
-            .call("vkCreatePipelineLayout")?;
+        raw.layout = unsafe { d.create_pipeline_layout(&layout_info, None) }.call("vkCreatePipelineLayout")?;
 
         let module_info = vk::ShaderModuleCreateInfo::default().code(spirv);
         // SAFETY: `spirv` has a valid header (checked); the driver/validation layer checks the rest.
-        let module =
-            unsafe { d.create_shader_module(&module_info, None) }.call("vkCreateShaderModule")?;
+        let module = unsafe { d.create_shader_module(&module_info, None) }.call("vkCreateShaderModule")?;
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
             .name(c"main");
-        let info = vk::ComputePipelineCreateInfo::default()
-            .stage(stage)
-            .layout(raw.layout);
+        let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(raw.layout);
         // SAFETY: valid module, layout and cache; the module may be destroyed once the pipeline exists.
         let created = unsafe {
             let r = d.create_compute_pipelines(inner.pipeline_cache, &[info], None);
             d.destroy_shader_module(module, None);
             r
         };
-        raw.pipeline = created
-            .map_err(|(_, result)| VkError::Vulkan {
-                call: "vkCreateComputePipelines",
-                result,
-            })?
-            .remove(0);
-        Ok(Self {
-            raw,
-            _push: PhantomData,
-        })
+        raw.pipeline =
+            created.map_err(|(_, result)| VkError::Vulkan { call: "vkCreateComputePipelines", result })?.remove(0);
+        Ok(Self { raw, _push: PhantomData })
     }
 
     pub fn name(&self) -> &str {
@@ -139,15 +125,8 @@ impl<P: Pod> Kernel<P> {
 
     /// Runs the kernel once as its own submission and waits for it. `buffers[i]` goes to binding `i`.
     /// For several kernels per frame, record them into one [`crate::Batch`] instead.
-    pub fn dispatch(
-        &self,
-        buffers: &[&dyn StorageBinding],
-        push: &P,
-        groups: Groups,
-    ) -> Result<Timings> {
-        let ctx = Context {
-            inner: self.raw.ctx.clone(),
-        };
+    pub fn dispatch(&self, buffers: &[&dyn StorageBinding], push: &P, groups: Groups) -> Result<Timings> {
+        let ctx = Context { inner: self.raw.ctx.clone() };
         let mut batch = ctx.batch();
         batch.dispatch(self, buffers, push, groups)?;
         batch.submit()

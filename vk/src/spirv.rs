@@ -7,10 +7,8 @@ pub const SPIRV_MAGIC: u32 = 0x0723_0203;
 
 /// Converts SPIR-V bytes (any alignment, either endianness) to words, checking the magic number.
 pub fn spirv_from_bytes(bytes: &[u8]) -> Result<Vec<u32>> {
-    ash::util::read_spv(&mut std::io::Cursor::new(bytes)).map_err(|e| VkError::InvalidSpirv {
-        name: "<bytes>".into(),
-        reason: e.to_string(),
-    })
+    ash::util::read_spv(&mut std::io::Cursor::new(bytes))
+        .map_err(|e| VkError::InvalidSpirv { name: "<bytes>".into(), reason: e.to_string() })
 }
 
 /// Embeds `$OUT_DIR/<name>.spv` compiled by the including crate's build.rs, as `Result<Vec<u32>>`.
@@ -30,15 +28,9 @@ pub(crate) fn check_spirv(name: &str, words: &[u32]) -> Result<()> {
     let reason = if words.len() < 5 {
         "shorter than the 5-word header".to_string()
     } else if words[0] != SPIRV_MAGIC {
-        format!(
-            "magic number is {:#010x}, expected {SPIRV_MAGIC:#010x}",
-            words[0]
-        )
+        format!("magic number is {:#010x}, expected {SPIRV_MAGIC:#010x}", words[0])
     } else {
         return Ok(());
     };
-    Err(VkError::InvalidSpirv {
-        name: name.into(),
-        reason,
-    })
+    Err(VkError::InvalidSpirv { name: name.into(), reason })
 }

@@ -35,18 +35,12 @@ pub(crate) struct TimestampPool<'d> {
 
 impl<'d> TimestampPool<'d> {
     /// `None` when the queue cannot write timestamps (`timestampValidBits == 0`).
-    pub(crate) fn new(
-        device: &'d ash::Device,
-        caps: &Capabilities,
-        commands: usize,
-    ) -> Result<Option<Self>> {
+    pub(crate) fn new(device: &'d ash::Device, caps: &Capabilities, commands: usize) -> Result<Option<Self>> {
         if !caps.timestamps || commands == 0 {
             return Ok(None);
         }
         let count = 2 * commands as u32;
-        let info = vk::QueryPoolCreateInfo::default()
-            .query_type(vk::QueryType::TIMESTAMP)
-            .query_count(count);
+        let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(count);
         // SAFETY: valid device and create info.
         let pool = unsafe { device.create_query_pool(&info, None) }.call("vkCreateQueryPool")?;
         let bits = caps.timestamp_valid_bits;
@@ -54,11 +48,7 @@ impl<'d> TimestampPool<'d> {
             device,
             pool,
             count,
-            valid_mask: if bits >= 64 {
-                u64::MAX
-            } else {
-                (1u64 << bits) - 1
-            },
+            valid_mask: if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 },
             period_ns: f64::from(caps.timestamp_period_ns),
         }))
     }
@@ -66,24 +56,14 @@ impl<'d> TimestampPool<'d> {
     /// Records the reset; must precede the first write in the same command buffer.
     pub(crate) fn record_reset(&self, cmd: vk::CommandBuffer) {
         // SAFETY: recording state, outside a render pass, queries in range.
-        unsafe {
-            self.device
-                .cmd_reset_query_pool(cmd, self.pool, 0, self.count)
-        };
+        unsafe { self.device.cmd_reset_query_pool(cmd, self.pool, 0, self.count) };
     }
 
     /// Timestamp taken when all earlier commands have finished (bottom of pipe), so that with the barriers
     /// between commands, `[2i, 2i+1]` brackets command `i`.
     pub(crate) fn record_write(&self, cmd: vk::CommandBuffer, query: u32) {
         // SAFETY: recording state; `query < count` and was reset in this command buffer.
-        unsafe {
-            self.device.cmd_write_timestamp(
-                cmd,
-                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
-                self.pool,
-                query,
-            )
-        };
+        unsafe { self.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, query) };
     }
 
     /// After the submission completed: per-command ms and total ms.
@@ -99,8 +79,7 @@ impl<'d> TimestampPool<'d> {
             )
         }
         .call("vkGetQueryPoolResults")?;
-        let ms =
-            |a: u64, b: u64| (b.wrapping_sub(a) & self.valid_mask) as f64 * self.period_ns * 1e-6;
+        let ms = |a: u64, b: u64| (b.wrapping_sub(a) & self.valid_mask) as f64 * self.period_ns * 1e-6;
         let per = ticks.chunks_exact(2).map(|p| ms(p[0], p[1])).collect();
         Ok((per, ms(ticks[0], ticks[ticks.len() - 1])))
     }

@@ -60,10 +60,7 @@ pub(crate) type MessageLog = Arc<Mutex<Vec<ValidationMessage>>>;
 /// The caller must keep `log` alive for as long as the messenger (or instance using this chain) exists.
 pub(crate) fn messenger_info(log: &MessageLog) -> vk::DebugUtilsMessengerCreateInfoEXT<'static> {
     vk::DebugUtilsMessengerCreateInfoEXT::default()
-        .message_severity(
-            vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
-                | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
-        )
+        .message_severity(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR)
         .message_type(
             vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
                 | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
@@ -88,10 +85,7 @@ unsafe extern "system" fn collect_message(
     let data = unsafe { &*data };
     // SAFETY: the strings are NUL-terminated and valid during the call, as the spec guarantees.
     let (id, text) = unsafe { (data.message_id_name_as_c_str(), data.message_as_c_str()) };
-    let to_string = |s: Option<&CStr>| {
-        s.map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default()
-    };
+    let to_string = |s: Option<&CStr>| s.map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let message = ValidationMessage {
         severity: if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
             Severity::Error

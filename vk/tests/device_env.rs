@@ -18,17 +18,8 @@ fn environment_picks_device_and_validation() {
     assert!(matches!(e, VkError::DeviceNotFound { .. }), "{e}");
     assert!(e.to_string().contains(&name), "{e}");
     // The API parameter wins over the environment.
-    let options = ContextOptions {
-        device: Some(name.clone()),
-        ..Default::default()
-    };
-    assert_eq!(
-        Context::with_options(&options)
-            .unwrap()
-            .capabilities()
-            .device_name,
-        name
-    );
+    let options = ContextOptions { device: Some(name.clone()), ..Default::default() };
+    assert_eq!(Context::with_options(&options).unwrap().capabilities().device_name, name);
 
     std::env::set_var("PSDR_VK_DEVICE", &name);
     std::env::set_var("PSDR_VK_VALIDATION", "0");

@@ -12,28 +12,18 @@ fn missing_driver_is_a_clear_error() {
     match Context::new() {
         Err(e @ (VkError::NoDevice { .. } | VkError::LoaderMissing { .. })) => {
             let message = e.to_string();
-            assert!(
-                message.contains("apt-get install mesa-vulkan-drivers libvulkan1"),
-                "{message}"
-            );
+            assert!(message.contains("apt-get install mesa-vulkan-drivers libvulkan1"), "{message}");
             eprintln!("error as users see it: {message}");
         }
         Err(other) => panic!("expected NoDevice or LoaderMissing, got: {other}"),
-        Ok(ctx) => panic!(
-            "a device opened without drivers: {}",
-            ctx.capabilities().device_name
-        ),
+        Ok(ctx) => panic!("a device opened without drivers: {}", ctx.capabilities().device_name),
     }
-    assert!(psdr_vk::list_devices()
-        .map(|d| d.is_empty())
-        .unwrap_or(true));
+    assert!(psdr_vk::list_devices().map(|d| d.is_empty()).unwrap_or(true));
 }
 
 #[test]
 fn loader_missing_message_names_the_packages() {
-    let e = VkError::LoaderMissing {
-        reason: "libvulkan.so.1: cannot open shared object file".into(),
-    };
+    let e = VkError::LoaderMissing { reason: "libvulkan.so.1: cannot open shared object file".into() };
     assert!(e.to_string().contains(INSTALL_HINT));
     assert!(INSTALL_HINT.contains("apt-get install mesa-vulkan-drivers libvulkan1"));
 }

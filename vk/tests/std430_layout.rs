@@ -63,13 +63,8 @@ fn std430_structs_round_trip_exactly() {
     let Some(ctx) = context("std430_structs_round_trip_exactly") else {
         return;
     };
-    let kernel: Kernel<Push> = Kernel::new(
-        &ctx,
-        "std430_layout",
-        &include_spirv!("std430_layout").unwrap(),
-        6,
-    )
-    .unwrap();
+    let kernel: Kernel<Push> =
+        Kernel::new(&ctx, "std430_layout", &include_spirv!("std430_layout").unwrap(), 6).unwrap();
     let (n_nodes, n_materials, n_mixed) = (100usize, 37usize, 65usize);
     let nodes: Vec<Node> = (0..n_nodes)
         .map(|i| Node {
@@ -87,21 +82,9 @@ fn std430_structs_round_trip_exactly() {
             flags: 0x1234_5600 | i as u32,
         })
         .collect();
-    let mixed: Vec<Mixed> = (0..n_mixed)
-        .map(|i| Mixed {
-            a: f(i, 0),
-            _pad0: 0,
-            b: [f(i, 1), f(i, 2)],
-            c: f(i, 3),
-            _pad1: 0,
-        })
-        .collect();
-    let push = Push {
-        nodes: n_nodes as u32,
-        materials: n_materials as u32,
-        mixed: n_mixed as u32,
-        scale: 2.0,
-    };
+    let mixed: Vec<Mixed> =
+        (0..n_mixed).map(|i| Mixed { a: f(i, 0), _pad0: 0, b: [f(i, 1), f(i, 2)], c: f(i, 3), _pad1: 0 }).collect();
+    let push = Push { nodes: n_nodes as u32, materials: n_materials as u32, mixed: n_mixed as u32, scale: 2.0 };
 
     let nodes_in = Buffer::from_slice(&ctx, "nodes_in", &nodes).unwrap();
     let materials_in = Buffer::from_slice(&ctx, "materials_in", &materials).unwrap();
@@ -111,14 +94,7 @@ fn std430_structs_round_trip_exactly() {
     let mixed_out = Buffer::<Mixed>::zeroed(&ctx, "mixed_out", n_mixed).unwrap();
     kernel
         .dispatch(
-            &[
-                &nodes_in,
-                &materials_in,
-                &mixed_in,
-                &nodes_out,
-                &materials_out,
-                &mixed_out,
-            ],
+            &[&nodes_in, &materials_in, &mixed_in, &nodes_out, &materials_out, &mixed_out],
             &push,
             Groups::linear(2), // 128 invocations of 64 cover the longest array
         )
@@ -143,16 +119,8 @@ fn std430_structs_round_trip_exactly() {
             flags: m.flags ^ 0xff,
         })
         .collect();
-    let expected_mixed: Vec<Mixed> = mixed
-        .iter()
-        .map(|x| Mixed {
-            a: x.b[0],
-            _pad0: 0,
-            b: [x.c, x.a],
-            c: x.b[1],
-            _pad1: 0,
-        })
-        .collect();
+    let expected_mixed: Vec<Mixed> =
+        mixed.iter().map(|x| Mixed { a: x.b[0], _pad0: 0, b: [x.c, x.a], c: x.b[1], _pad1: 0 }).collect();
 
     assert_eq!(nodes_out.download().unwrap(), expected_nodes);
     assert_eq!(materials_out.download().unwrap(), expected_materials);

@@ -29,31 +29,24 @@ fn kernels_run_without_validation_errors() {
         ValidationMode::Required => ValidationMode::Required,
         _ => ValidationMode::IfAvailable,
     };
-    let options = ContextOptions {
-        validation: Some(mode),
-        ..Default::default()
-    };
+    let options = ContextOptions { validation: Some(mode), ..Default::default() };
     let Some(ctx) = context_with(test, &options) else {
         return;
     };
     if !ctx.validation_enabled() {
-        eprintln!("SKIP {test}: VK_LAYER_KHRONOS_validation is not installed (apt-get install vulkan-validationlayers)");
+        eprintln!(
+            "SKIP {test}: VK_LAYER_KHRONOS_validation is not installed (apt-get install vulkan-validationlayers)"
+        );
         return;
     }
 
     // The collector works: an injected error shows up, and clearing forgets it.
     ctx.emit_test_validation_message(Severity::Error);
-    assert_eq!(
-        ctx.validation_errors().len(),
-        1,
-        "{:?}",
-        ctx.validation_messages()
-    );
+    assert_eq!(ctx.validation_errors().len(), 1, "{:?}", ctx.validation_messages());
     ctx.clear_validation_messages();
     assert!(ctx.validation_messages().is_empty());
 
-    let saxpy: Kernel<SaxpyPush> =
-        Kernel::new(&ctx, "saxpy", &include_spirv!("saxpy").unwrap(), 2).unwrap();
+    let saxpy: Kernel<SaxpyPush> = Kernel::new(&ctx, "saxpy", &include_spirv!("saxpy").unwrap(), 2).unwrap();
     let n = 50_000usize;
     let x = Buffer::from_slice(&ctx, "x", &vec![1.0f32; n]).unwrap();
     let y = Buffer::<f32>::zeroed(&ctx, "y", n).unwrap();
@@ -62,15 +55,7 @@ fn kernels_run_without_validation_errors() {
     batch
         .fill_u32(&y, 1.0f32.to_bits())
         .unwrap()
-        .dispatch(
-            &saxpy,
-            &[&x, &y],
-            &SaxpyPush {
-                a: 2.0,
-                n: n as u32,
-            },
-            Groups::folded_2d(n as u64, 256),
-        )
+        .dispatch(&saxpy, &[&x, &y], &SaxpyPush { a: 2.0, n: n as u32 }, Groups::folded_2d(n as u64, 256))
         .unwrap()
         .copy(&y, &copy)
         .unwrap();
@@ -81,16 +66,7 @@ fn kernels_run_without_validation_errors() {
         let histogram: Kernel<HistogramPush> =
             Kernel::new(&ctx, "histogram", &include_spirv!("histogram").unwrap(), 2).unwrap();
         let hist = Buffer::<f32>::zeroed(&ctx, "hist", 16).unwrap();
-        histogram
-            .dispatch(
-                &[&copy, &hist],
-                &HistogramPush {
-                    n: n as u32,
-                    bins: 16,
-                },
-                Groups::linear(64),
-            )
-            .unwrap();
+        histogram.dispatch(&[&copy, &hist], &HistogramPush { n: n as u32, bins: 16 }, Groups::linear(64)).unwrap();
         // All values are 3.0 -> the last bin; 50 000 * 3 is exact in f32.
         assert_eq!(hist.download().unwrap()[15], 3.0 * n as f32);
     }
@@ -101,15 +77,8 @@ fn kernels_run_without_validation_errors() {
     for m in &messages {
         eprintln!("{test}: {m}");
     }
-    let errors: Vec<_> = messages
-        .iter()
-        .filter(|m| m.severity == Severity::Error)
-        .collect();
-    assert!(
-        errors.is_empty(),
-        "{} validation errors: {errors:#?}",
-        errors.len()
-    );
+    let errors: Vec<_> = messages.iter().filter(|m| m.severity == Severity::Error).collect();
+    assert!(errors.is_empty(), "{} validation errors: {errors:#?}", errors.len());
 
     // And the layer really checks: a buffer with no usage flags violates a VUID (the driver accepts it anyway).
     let device = ctx.raw_device();
@@ -121,10 +90,7 @@ fn kernels_run_without_validation_errors() {
         }
     }
     let errors = ctx.validation_errors();
-    assert!(
-        !errors.is_empty(),
-        "the validation layer did not flag a buffer without usage flags"
-    );
+    assert!(!errors.is_empty(), "the validation layer did not flag a buffer without usage flags");
     eprintln!("{test}: deliberate misuse was caught: {}", errors[0]);
     ctx.clear_validation_messages();
 }

@@ -43,15 +43,7 @@ fn kernel(sigma: f64, k: &mut [f64], dk: &mut [f64]) {
 }
 
 /// dst = src convolved with taps along x (horizontal) or y (vertical), wrapping.
-fn convolve(
-    src: &[f64],
-    dst: &mut [f64],
-    n: usize,
-    c: usize,
-    taps: &[f64],
-    r: usize,
-    vertical: bool,
-) {
+fn convolve(src: &[f64], dst: &mut [f64], n: usize, c: usize, taps: &[f64], r: usize, vertical: bool) {
     dst.par_chunks_mut(n * c).enumerate().for_each(|(y, row)| {
         for x in 0..n {
             for ch in 0..c {
@@ -123,13 +115,7 @@ fn split(scratch: &mut Vec<f64>, taps: usize, len: usize) -> Parts<'_> {
 }
 
 impl NodeOp for Blur {
-    fn forward(
-        &self,
-        a: &NodeArgs,
-        ins: &[Option<&Image>],
-        out: &mut Image,
-        scratch: &mut Vec<f64>,
-    ) {
+    fn forward(&self, a: &NodeArgs, ins: &[Option<&Image>], out: &mut Image, scratch: &mut Vec<f64>) {
         let src = ins[0].expect("blur input");
         let (n, c) = (a.size, src.channels);
         let r = radius(a.f[0] * n as f64);
@@ -139,14 +125,7 @@ impl NodeOp for Blur {
         convolve(tmp, &mut out.data, n, c, k, r, true);
     }
 
-    fn backward(
-        &self,
-        a: &NodeArgs,
-        ins: &[Option<&Image>],
-        _: &Image,
-        d_out: &Image,
-        cx: BackwardCtx,
-    ) {
+    fn backward(&self, a: &NodeArgs, ins: &[Option<&Image>], _: &Image, d_out: &Image, cx: BackwardCtx) {
         let src = ins[0].expect("blur input");
         let (n, c) = (a.size, src.channels);
         let r = radius(a.f[0] * n as f64);

@@ -16,20 +16,11 @@ impl Generator for Bricks {
         let yr = v * rows as f64;
         let r = yr.floor() as i64;
         let fy = yr - r as f64;
-        let shift = if r.rem_euclid(2) == 1 {
-            f[0]
-        } else {
-            T::c(0.0)
-        };
+        let shift = if r.rem_euclid(2) == 1 { f[0] } else { T::c(0.0) };
         let xs = shift + u * cols as f64;
         let b = xs.v().floor() as i64;
         if i[3] == 1 {
-            return T::c(hash01(
-                b.rem_euclid(cols),
-                r.rem_euclid(rows),
-                i[2] as u64,
-                0,
-            ));
+            return T::c(hash01(b.rem_euclid(cols), r.rem_euclid(rows), i[2] as u64, 0));
         }
         let fx = xs - b as f64;
         let aspect = rows as f64 / cols as f64;

@@ -20,11 +20,7 @@ impl Generator for Voronoi {
         let mut best = [(big, T::c(0.0), T::c(0.0), 0.0); 2];
         let j0 = y.floor() as i64;
         for cy in j0 - 1..=j0 + 1 {
-            let shift = if stagger != 0 && cy.rem_euclid(2) == 1 {
-                0.5
-            } else {
-                0.0
-            };
+            let shift = if stagger != 0 && cy.rem_euclid(2) == 1 { 0.5 } else { 0.0 };
             let i0 = (x - shift).floor() as i64;
             for cx in i0 - 1..=i0 + 1 {
                 let (wx, wy) = (cx.rem_euclid(sx), cy.rem_euclid(sy));

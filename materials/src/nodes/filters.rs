@@ -77,11 +77,7 @@ impl Pointwise for HslShift {
         }
         let h = (h + f[0]).fract();
         let s = (s * (f[1] + 1.0)).clamp01();
-        let l = if f[2].v() > 0.0 {
-            l + f[2] * (T::c(1.0) - l)
-        } else {
-            l + f[2] * l
-        };
+        let l = if f[2].v() > 0.0 { l + f[2] * (T::c(1.0) - l) } else { l + f[2] * l };
         hsl_to_rgb(h, s, l.clamp01())
     }
 }
@@ -179,9 +175,7 @@ impl Pointwise for ConstColor {
 }
 
 /// Names of the blend modes, in `mode` order.
-pub const BLEND_MODES: &[&str] = &[
-    "normal", "multiply", "add", "screen", "overlay", "subtract", "lighten", "darken",
-];
+pub const BLEND_MODES: &[&str] = &["normal", "multiply", "add", "screen", "overlay", "subtract", "lighten", "darken"];
 
 /// Blend `b` over `a` with a mode, an opacity and an optional grey mask.
 pub struct Blend;

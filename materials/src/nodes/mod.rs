@@ -16,81 +16,29 @@ mod wood;
 use crate::kernel::{GenNode, PointNode};
 use crate::node_op::{Channels, InputSpec, NodeSpec, OutRule, SlotKind, SlotSpec};
 
-const fn float(
-    name: &'static str,
-    min: f64,
-    max: f64,
-    default: f64,
-    doc: &'static str,
-) -> SlotSpec {
-    SlotSpec {
-        name,
-        kind: SlotKind::Float { min, max, default },
-        doc,
-    }
+const fn float(name: &'static str, min: f64, max: f64, default: f64, doc: &'static str) -> SlotSpec {
+    SlotSpec { name, kind: SlotKind::Float { min, max, default }, doc }
 }
 const fn color(name: &'static str, default: [f64; 3], doc: &'static str) -> SlotSpec {
-    SlotSpec {
-        name,
-        kind: SlotKind::Color { default },
-        doc,
-    }
+    SlotSpec { name, kind: SlotKind::Color { default }, doc }
 }
 const fn int(name: &'static str, min: i64, max: i64, default: i64, doc: &'static str) -> SlotSpec {
-    SlotSpec {
-        name,
-        kind: SlotKind::Int {
-            min,
-            max,
-            default,
-            names: &[],
-        },
-        doc,
-    }
+    SlotSpec { name, kind: SlotKind::Int { min, max, default, names: &[] }, doc }
 }
-const fn choice(
-    name: &'static str,
-    names: &'static [&'static str],
-    default: i64,
-    doc: &'static str,
-) -> SlotSpec {
-    SlotSpec {
-        name,
-        kind: SlotKind::Int {
-            min: 0,
-            max: names.len() as i64 - 1,
-            default,
-            names,
-        },
-        doc,
-    }
+const fn choice(name: &'static str, names: &'static [&'static str], default: i64, doc: &'static str) -> SlotSpec {
+    SlotSpec { name, kind: SlotKind::Int { min: 0, max: names.len() as i64 - 1, default, names }, doc }
 }
 const SEED: SlotSpec = int("seed", 0, 1 << 31, 0, "random seed");
 const fn input(name: &'static str, channels: Channels) -> InputSpec {
-    InputSpec {
-        name,
-        channels,
-        optional: false,
-    }
+    InputSpec { name, channels, optional: false }
 }
 const ANY_IN: &[InputSpec] = &[input("input", Channels::Any)];
 const GRAY_IN: &[InputSpec] = &[input("input", Channels::Gray)];
 const BOARD_SLOTS_TAIL: [SlotSpec; 6] = [
     SEED,
-    choice(
-        "mode",
-        planks::BOARD_MODES,
-        0,
-        "mask | random (per board) | grain",
-    ),
+    choice("mode", planks::BOARD_MODES, 0, "mask | random (per board) | grain"),
     int("grain_scale", 1, 64, 8, "grain ring density"),
-    float(
-        "gap",
-        0.0,
-        0.3,
-        0.03,
-        "half gap between boards, board widths",
-    ),
+    float("gap", 0.0, 0.3, 0.03, "half gap between boards, board widths"),
     float("bevel", 0.001, 0.5, 0.05, "edge rounding, board widths"),
     float("grain_warp", 0.0, 3.0, 0.8, "bending of the grain rings"),
 ];
@@ -181,8 +129,12 @@ pub static NODES: &[NodeSpec] = &[
         slots: &[
             int("rows", 1, 64, 6, "boards down the tile"),
             int("per_row", 1, 16, 2, "boards across the tile"),
-            BOARD_SLOTS_TAIL[0], BOARD_SLOTS_TAIL[1], BOARD_SLOTS_TAIL[2],
-            BOARD_SLOTS_TAIL[3], BOARD_SLOTS_TAIL[4], BOARD_SLOTS_TAIL[5],
+            BOARD_SLOTS_TAIL[0],
+            BOARD_SLOTS_TAIL[1],
+            BOARD_SLOTS_TAIL[2],
+            BOARD_SLOTS_TAIL[3],
+            BOARD_SLOTS_TAIL[4],
+            BOARD_SLOTS_TAIL[5],
         ],
         out: OutRule::Gray,
         op: &GenNode(planks::Planks),
@@ -194,8 +146,12 @@ pub static NODES: &[NodeSpec] = &[
         slots: &[
             int("ratio", 2, 10, 4, "board length / width"),
             int("repeat", 1, 16, 2, "pattern repeats per tile"),
-            BOARD_SLOTS_TAIL[0], BOARD_SLOTS_TAIL[1], BOARD_SLOTS_TAIL[2],
-            BOARD_SLOTS_TAIL[3], BOARD_SLOTS_TAIL[4], BOARD_SLOTS_TAIL[5],
+            BOARD_SLOTS_TAIL[0],
+            BOARD_SLOTS_TAIL[1],
+            BOARD_SLOTS_TAIL[2],
+            BOARD_SLOTS_TAIL[3],
+            BOARD_SLOTS_TAIL[4],
+            BOARD_SLOTS_TAIL[5],
         ],
         out: OutRule::Gray,
         op: &GenNode(planks::Herringbone),
@@ -217,7 +173,10 @@ pub static NODES: &[NodeSpec] = &[
         name: "checker",
         doc: "Checkerboard with soft edges.",
         inputs: &[],
-        slots: &[int("count", 1, 128, 4, "periods per tile (2 cells each)"), float("softness", 0.001, 0.25, 0.01, "edge softness")],
+        slots: &[
+            int("count", 1, 128, 4, "periods per tile (2 cells each)"),
+            float("softness", 0.001, 0.25, 0.01, "edge softness"),
+        ],
         out: OutRule::Gray,
         op: &GenNode(patterns::Checker),
     },
@@ -300,7 +259,11 @@ pub static NODES: &[NodeSpec] = &[
     NodeSpec {
         name: "blend",
         doc: "Blend b over a: normal, multiply, add, screen, overlay, subtract, lighten, darken; optional grey mask.",
-        inputs: &[input("a", Channels::Any), input("b", Channels::Any), InputSpec { name: "mask", channels: Channels::Gray, optional: true }],
+        inputs: &[
+            input("a", Channels::Any),
+            input("b", Channels::Any),
+            InputSpec { name: "mask", channels: Channels::Gray, optional: true },
+        ],
         slots: &[choice("mode", filters::BLEND_MODES, 0, "blend mode"), float("opacity", 0.0, 1.0, 1.0, "opacity")],
         out: OutRule::WidestInput,
         op: &PointNode(filters::Blend),
@@ -447,45 +410,25 @@ pub fn reference_markdown() -> String {
                         Channels::Color => "colour",
                         Channels::Any => "grey or colour",
                     };
-                    format!(
-                        "`{}` ({ch}{})",
-                        i.name,
-                        if i.optional { ", optional" } else { "" }
-                    )
+                    format!("`{}` ({ch}{})", i.name, if i.optional { ", optional" } else { "" })
                 })
                 .collect();
             let _ = writeln!(s, "Inputs: {}.\n", ins.join(", "));
         }
         if !spec.slots.is_empty() {
-            let _ = writeln!(
-                s,
-                "| parameter | kind | range | default | meaning |\n|---|---|---|---|---|"
-            );
+            let _ = writeln!(s, "| parameter | kind | range | default | meaning |\n|---|---|---|---|---|");
             for slot in spec.slots {
                 let (kind, range, default) = match slot.kind {
-                    SlotKind::Float { min, max, default } => {
-                        ("float", format!("{min} .. {max}"), format!("{default}"))
+                    SlotKind::Float { min, max, default } => ("float", format!("{min} .. {max}"), format!("{default}")),
+                    SlotKind::Color { default } => ("color", "0 .. 1 each".into(), format!("{default:?}")),
+                    SlotKind::Int { min, max, default, names: [] } => {
+                        ("int", format!("{min} .. {max}"), format!("{default}"))
                     }
-                    SlotKind::Color { default } => {
-                        ("color", "0 .. 1 each".into(), format!("{default:?}"))
+                    SlotKind::Int { default, names, .. } => {
+                        ("choice", names.join(" \\| "), names[default as usize].to_string())
                     }
-                    SlotKind::Int {
-                        min,
-                        max,
-                        default,
-                        names: [],
-                    } => ("int", format!("{min} .. {max}"), format!("{default}")),
-                    SlotKind::Int { default, names, .. } => (
-                        "choice",
-                        names.join(" \\| "),
-                        names[default as usize].to_string(),
-                    ),
                 };
-                let _ = writeln!(
-                    s,
-                    "| `{}` | {kind} | {range} | {default} | {} |",
-                    slot.name, slot.doc
-                );
+                let _ = writeln!(s, "| `{}` | {kind} | {range} | {default} | {} |", slot.name, slot.doc);
             }
             s.push('\n');
         }

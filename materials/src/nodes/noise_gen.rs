@@ -47,13 +47,7 @@ impl Generator for Grunge {
         octaves(u, v, s, s, i[1] as u64, &mut n);
         let base = fbm_sum(&n, T::c(0.6)) * 0.5 + 0.5;
         let fine = 8 * s;
-        let speck = perlin(
-            u * fine as f64,
-            v * fine as f64,
-            fine,
-            fine,
-            i[1] as u64 ^ 0xABCD,
-        );
+        let speck = perlin(u * fine as f64, v * fine as f64, fine, fine, i[1] as u64 ^ 0xABCD);
         let x = base + f[2] * (speck * 0.35);
         smoothstep(f[0] - f[1], f[0] + f[1], x)
     }

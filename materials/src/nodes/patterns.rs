@@ -38,11 +38,7 @@ impl Generator for Dots {
         let n = i[0].max(1);
         let y = v * n as f64;
         let row = y.floor() as i64;
-        let shift = if i[1] != 0 && row.rem_euclid(2) == 1 {
-            0.5
-        } else {
-            0.0
-        };
+        let shift = if i[1] != 0 && row.rem_euclid(2) == 1 { 0.5 } else { 0.0 };
         let x = u * n as f64 - shift;
         let col = x.floor() as i64;
         let (lx, ly) = (x - col as f64 - 0.5, y - row as f64 - 0.5);

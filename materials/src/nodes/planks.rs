@@ -89,12 +89,7 @@ impl Generator for Herringbone {
         let board = if r < k as f64 {
             let q = (xp / (2 * k) as f64).floor() as i64;
             let (a, b) = canon(n, q);
-            Board {
-                along: T::c(r),
-                length: k as f64,
-                across: y - n as f64,
-                id: (a, 2 * b),
-            }
+            Board { along: T::c(r), length: k as f64, across: y - n as f64, id: (a, 2 * b) }
         } else {
             let m = r.floor() as i64 - k;
             let base = n + m;

@@ -31,12 +31,9 @@ fn scatter(d_im: &mut Image, px: f64, py: f64, c: usize, g: f64) {
     let (x0, y0) = (px.floor(), py.floor());
     let (tx, ty) = (px - x0, py - y0);
     let (x0, y0) = (x0 as i64, y0 as i64);
-    for (dx, dy, w) in [
-        (0, 0, (1.0 - tx) * (1.0 - ty)),
-        (1, 0, tx * (1.0 - ty)),
-        (0, 1, (1.0 - tx) * ty),
-        (1, 1, tx * ty),
-    ] {
+    for (dx, dy, w) in
+        [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)]
+    {
         let xi = (x0 + dx).rem_euclid(n) as usize;
         let yi = (y0 + dy).rem_euclid(n) as usize;
         d_im.data[(yi * n as usize + xi) * ch + c] += g * w;
@@ -48,40 +45,24 @@ fn scatter(d_im: &mut Image, px: f64, py: f64, c: usize, g: f64) {
 trait Mapping: Send + Sync {
     /// Returns (px, py) and fills `jac[s] = (dpx, dpy)` per float slot; the last
     /// entry of `jac` is the derivative in the auxiliary input texel, if any.
-    fn map(
-        &self,
-        a: &NodeArgs,
-        aux: Option<&Image>,
-        x: usize,
-        y: usize,
-        jac: &mut [(f64, f64); 5],
-    ) -> (f64, f64);
+    fn map(&self, a: &NodeArgs, aux: Option<&Image>, x: usize, y: usize, jac: &mut [(f64, f64); 5]) -> (f64, f64);
 }
 
 fn forward_mapped<M: Mapping>(m: &M, a: &NodeArgs, ins: &[Option<&Image>], out: &mut Image) {
     let src = ins[0].expect("resample input");
     let (n, oc) = (a.size, a.out_channels);
-    out.data
-        .par_chunks_mut(n * oc)
-        .enumerate()
-        .for_each(|(y, row)| {
-            let mut jac = [(0.0, 0.0); 5];
-            for x in 0..n {
-                let (px, py) = m.map(a, ins.get(1).copied().flatten(), x, y, &mut jac);
-                for c in 0..oc {
-                    row[x * oc + c] = bilerp(src, px, py, c).0;
-                }
+    out.data.par_chunks_mut(n * oc).enumerate().for_each(|(y, row)| {
+        let mut jac = [(0.0, 0.0); 5];
+        for x in 0..n {
+            let (px, py) = m.map(a, ins.get(1).copied().flatten(), x, y, &mut jac);
+            for c in 0..oc {
+                row[x * oc + c] = bilerp(src, px, py, c).0;
             }
-        });
+        }
+    });
 }
 
-fn backward_mapped<M: Mapping>(
-    m: &M,
-    a: &NodeArgs,
-    ins: &[Option<&Image>],
-    d_out: &Image,
-    cx: BackwardCtx,
-) {
+fn backward_mapped<M: Mapping>(m: &M, a: &NodeArgs, ins: &[Option<&Image>], d_out: &Image, cx: BackwardCtx) {
     let src = ins[0].expect("resample input");
     let aux = ins.get(1).copied().flatten();
     let (n, oc) = (a.size, a.out_channels);
@@ -122,14 +103,7 @@ fn backward_mapped<M: Mapping>(
 /// Texel moves by amount * 2 (d - 0.5) along the angle.
 pub struct Warp;
 impl Mapping for Warp {
-    fn map(
-        &self,
-        a: &NodeArgs,
-        aux: Option<&Image>,
-        x: usize,
-        y: usize,
-        jac: &mut [(f64, f64); 5],
-    ) -> (f64, f64) {
+    fn map(&self, a: &NodeArgs, aux: Option<&Image>, x: usize, y: usize, jac: &mut [(f64, f64); 5]) -> (f64, f64) {
         let n = a.size as f64;
         let d = aux.map_or(0.5, |im| im.data[y * a.size + x]);
         let (amount, th) = (a.f[0], a.f[1] * TAU);
@@ -146,14 +120,7 @@ impl Mapping for Warp {
 /// Integer scales with rotations by quarter turns keep the result tileable.
 pub struct Transform;
 impl Mapping for Transform {
-    fn map(
-        &self,
-        a: &NodeArgs,
-        _: Option<&Image>,
-        x: usize,
-        y: usize,
-        jac: &mut [(f64, f64); 5],
-    ) -> (f64, f64) {
+    fn map(&self, a: &NodeArgs, _: Option<&Image>, x: usize, y: usize, jac: &mut [(f64, f64); 5]) -> (f64, f64) {
         let n = a.size as f64;
         let (s, th, ox, oy) = (a.f[0], a.f[1] * TAU, a.f[2], a.f[3]);
         let (cs, sn) = (th.cos(), th.sin());
@@ -162,10 +129,7 @@ impl Mapping for Transform {
         let su = (ru * s + 0.5 - ox) * n - 0.5;
         let sv = (rv * s + 0.5 - oy) * n - 0.5;
         jac[0] = (ru * n, rv * n);
-        jac[1] = (
-            (-sn * u - cs * v) * s * n * TAU,
-            (cs * u - sn * v) * s * n * TAU,
-        );
+        jac[1] = ((-sn * u - cs * v) * s * n * TAU, (cs * u - sn * v) * s * n * TAU);
         jac[2] = (-n, 0.0);
         jac[3] = (0.0, -n);
         (su, sv)
@@ -176,14 +140,7 @@ impl NodeOp for Warp {
     fn forward(&self, a: &NodeArgs, ins: &[Option<&Image>], out: &mut Image, _: &mut Vec<f64>) {
         forward_mapped(self, a, ins, out)
     }
-    fn backward(
-        &self,
-        a: &NodeArgs,
-        ins: &[Option<&Image>],
-        _: &Image,
-        d_out: &Image,
-        cx: BackwardCtx,
-    ) {
+    fn backward(&self, a: &NodeArgs, ins: &[Option<&Image>], _: &Image, d_out: &Image, cx: BackwardCtx) {
         backward_mapped(self, a, ins, d_out, cx)
     }
 }
@@ -192,14 +149,7 @@ impl NodeOp for Transform {
     fn forward(&self, a: &NodeArgs, ins: &[Option<&Image>], out: &mut Image, _: &mut Vec<f64>) {
         forward_mapped(self, a, ins, out)
     }
-    fn backward(
-        &self,
-        a: &NodeArgs,
-        ins: &[Option<&Image>],
-        _: &Image,
-        d_out: &Image,
-        cx: BackwardCtx,
-    ) {
+    fn backward(&self, a: &NodeArgs, ins: &[Option<&Image>], _: &Image, d_out: &Image, cx: BackwardCtx) {
         backward_mapped(self, a, ins, d_out, cx)
     }
 }

@@ -31,8 +31,7 @@ impl Generator for Scratches {
                     let t = along.max(-hl).min(hl);
                     let (ex, ey) = (-(dx * t) + rx, -(dy * t) + ry);
                     let dist = (ex * ex + ey * ey).sqrt();
-                    let line =
-                        (T::c(1.0) - smoothstep(T::c(0.0), width, dist)) * (0.5 + 0.5 * h(3));
+                    let line = (T::c(1.0) - smoothstep(T::c(0.0), width, dist)) * (0.5 + 0.5 * h(3));
                     best = best.max(line);
                 }
             }

@@ -25,11 +25,8 @@ impl Generator for Weave {
             smoothstep(T::c(0.0), T::c(1.0), T::c(1.0) - d)
         };
         let arch = |t: f64| T::c(1.0) - f[1] * (1.0 - (t * std::f64::consts::PI).sin());
-        let (warp_h, weft_h) = if warp_on_top {
-            (bump(a) * arch(b), bump(b) * 0.55)
-        } else {
-            (bump(a) * 0.55, bump(b) * arch(a))
-        };
+        let (warp_h, weft_h) =
+            if warp_on_top { (bump(a) * arch(b), bump(b) * 0.55) } else { (bump(a) * 0.55, bump(b) * arch(a)) };
         warp_h.max(weft_h)
     }
 }

@@ -51,10 +51,7 @@ pub fn check_fd(
         let a = analytic[k];
         let ok = (a - fd).abs() <= rel * (a.abs() + fd.abs()) + abs;
         if !ok || !a.is_finite() {
-            return Err(format!(
-                "param {} ({k}): analytic {a:.9e} vs FD {fd:.9e}",
-                names[k]
-            ));
+            return Err(format!("param {} ({k}): analytic {a:.9e} vs FD {fd:.9e}", names[k]));
         }
     }
     Ok(())

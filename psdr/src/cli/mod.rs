@@ -8,7 +8,11 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "psdr", version, about = "Single photo to editable 3D room scene by path-space differentiable rendering")]
+#[command(
+    name = "psdr",
+    version,
+    about = "Single photo to editable 3D room scene by path-space differentiable rendering"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -59,7 +59,12 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path) -> Result<PathBuf> {
     let s = &scene.settings;
     let c = &scene.camera;
     let target = c.origin + c.forward;
-    writeln!(x, "<?xml version=\"1.0\"?>\n<!-- Exported by psdr from {} -->", scene.source.as_ref().map(|p| p.display().to_string()).unwrap_or_default()).unwrap();
+    writeln!(
+        x,
+        "<?xml version=\"1.0\"?>\n<!-- Exported by psdr from {} -->",
+        scene.source.as_ref().map(|p| p.display().to_string()).unwrap_or_default()
+    )
+    .unwrap();
     writeln!(x, "<scene version=\"3.0.0\">").unwrap();
     writeln!(x, "  <integrator type=\"path\">\n    <integer name=\"max_depth\" value=\"{}\"/>\n    <integer name=\"rr_depth\" value=\"{}\"/>\n  </integrator>", s.max_depth, s.rr_depth).unwrap();
     writeln!(
@@ -81,12 +86,16 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path) -> Result<PathBuf> {
         for (pi, part) in o.parts.iter().enumerate() {
             let m = &scene.materials[part.material];
             let p: Vec<Vec3> = part.positions.iter().map(|&v| mat.transform_point3(v)).collect();
-            let n: Option<Vec<Vec3>> = part.normals.as_ref().map(|ns| ns.iter().map(|&v| (nm * v).normalize_or_zero()).collect());
+            let n: Option<Vec<Vec3>> =
+                part.normals.as_ref().map(|ns| ns.iter().map(|&v| (nm * v).normalize_or_zero()).collect());
             let rows = m.uv_transform.rows();
             let uv: Option<Vec<Vec2>> = part.uvs.as_ref().map(|uvs| {
                 uvs.iter()
                     .map(|u| {
-                        let (a, b) = (rows[0][0] * u.x + rows[0][1] * u.y + rows[0][2], rows[1][0] * u.x + rows[1][1] * u.y + rows[1][2]);
+                        let (a, b) = (
+                            rows[0][0] * u.x + rows[0][1] * u.y + rows[0][2],
+                            rows[1][0] * u.x + rows[1][1] * u.y + rows[1][2],
+                        );
                         Vec2::new(a, 1.0 - b)
                     })
                     .collect()
@@ -94,13 +103,23 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path) -> Result<PathBuf> {
             let tris: Vec<[u32; 3]> = part.indices.iter().map(|t| if flip { [t[0], t[2], t[1]] } else { *t }).collect();
             let file = format!("meshes/{oi:03}_{pi:02}.ply");
             write_ply(&dir.join(&file), &p, n.as_deref(), uv.as_deref(), &tris)?;
-            writeln!(x, "  <shape type=\"ply\" id=\"{}\">\n    <string name=\"filename\" value=\"{file}\"/>", xml_id(&format!("{}_{}", o.name, part.name))).unwrap();
+            writeln!(
+                x,
+                "  <shape type=\"ply\" id=\"{}\">\n    <string name=\"filename\" value=\"{file}\"/>",
+                xml_id(&format!("{}_{}", o.name, part.name))
+            )
+            .unwrap();
             if n.is_none() {
                 writeln!(x, "    <boolean name=\"face_normals\" value=\"true\"/>").unwrap();
             }
             writeln!(x, "    <ref id=\"mat{}\"/>", part.material).unwrap();
             if let Some(e) = o.emitter {
-                writeln!(x, "    <emitter type=\"area\">\n      <rgb name=\"radiance\" value=\"{}\"/>\n    </emitter>", rgb(e.radiance)).unwrap();
+                writeln!(
+                    x,
+                    "    <emitter type=\"area\">\n      <rgb name=\"radiance\" value=\"{}\"/>\n    </emitter>",
+                    rgb(e.radiance)
+                )
+                .unwrap();
             }
             writeln!(x, "  </shape>").unwrap();
         }
@@ -150,14 +169,18 @@ fn material_xml(scene: &Scene, mi: usize, m: &Material, dir: &Path, warnings: &m
     let what = format!("material '{}'", m.name);
     let specular = scalar_value(scene, m.specular, warnings, &format!("{what} specular"));
     let mut inner = if specular <= 0.0 {
-        format!("    <bsdf type=\"diffuse\">\n{}    </bsdf>\n", color_xml(scene, "reflectance", m.albedo, 1.0, dir, "albedo")?)
+        format!(
+            "    <bsdf type=\"diffuse\">\n{}    </bsdf>\n",
+            color_xml(scene, "reflectance", m.albedo, 1.0, dir, "albedo")?
+        )
     } else {
         let roughness = scalar_value(scene, m.roughness, warnings, &format!("{what} roughness"));
         let eta = specular_to_eta(specular);
         // Mitsuba's linear diffuse term is rho / (1 - F_int) / eta^2 * t_i t_o / pi; with
         // eta^2 (1 - F_int) = 1 - F_avg (energy balance at the interface) ours is matched by this scale.
         let k = 1.0 - fresnel_hemispherical_average(eta);
-        warnings.push(format!("{what}: specular layer exported as roughplastic (close, not identical at grazing angles)"));
+        warnings
+            .push(format!("{what}: specular layer exported as roughplastic (close, not identical at grazing angles)"));
         format!(
             "    <bsdf type=\"roughplastic\">\n      <string name=\"distribution\" value=\"ggx\"/>\n      <float name=\"alpha\" value=\"{:.6}\"/>\n      <float name=\"int_ior\" value=\"{eta:.6}\"/>\n      <float name=\"ext_ior\" value=\"1.0\"/>\n      <boolean name=\"nonlinear\" value=\"false\"/>\n{}    </bsdf>\n",
             crate::render::bsdf::ggx_alpha(roughness),
@@ -165,7 +188,8 @@ fn material_xml(scene: &Scene, mi: usize, m: &Material, dir: &Path, warnings: &m
         )
     };
     if let Some(t) = m.normal_map {
-        warnings.push(format!("{what}: normal map exported through Mitsuba's normalmap BSDF (tangent frames may differ)"));
+        warnings
+            .push(format!("{what}: normal map exported through Mitsuba's normalmap BSDF (tangent frames may differ)"));
         let file = export_texture(scene, t, 1.0, dir, "normal")?;
         inner = format!("    <bsdf type=\"normalmap\">\n      <texture type=\"bitmap\" name=\"normalmap\">\n        <string name=\"filename\" value=\"{file}\"/>\n        <boolean name=\"raw\" value=\"true\"/>\n      </texture>\n{}    </bsdf>\n", inner.replace("\n    ", "\n      ").replacen("    <bsdf", "      <bsdf", 1));
     }

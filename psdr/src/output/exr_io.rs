@@ -10,7 +10,12 @@ pub fn write_exr_channels(path: &Path, width: u32, height: u32, channels: &[(Str
     let size = (width as usize, height as usize);
     let list: Vec<AnyChannel<FlatSamples>> =
         channels.iter().map(|(name, data)| AnyChannel::new(name.as_str(), FlatSamples::F32(data.clone()))).collect();
-    let layer = Layer::new(size, LayerAttributes::named("psdr"), Encoding::SMALL_LOSSLESS, AnyChannels::sort(SmallVec::from_vec(list)));
+    let layer = Layer::new(
+        size,
+        LayerAttributes::named("psdr"),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(SmallVec::from_vec(list)),
+    );
     let image = Image::from_layer(layer);
     write_atomically(path, |tmp| image.write().to_file(tmp).map_err(|e| Error::io(path, e)))
 }
@@ -20,12 +25,8 @@ pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Vec<(String, Vec<f32>
     let image = read_all_flat_layers_from_file(path).map_err(|e| Error::io(path, e))?;
     let layer = image.layer_data.first().ok_or_else(|| Error::io(path, "EXR has no layers"))?;
     let (w, h) = (layer.size.width() as u32, layer.size.height() as u32);
-    let channels = layer
-        .channel_data
-        .list
-        .iter()
-        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
-        .collect();
+    let channels =
+        layer.channel_data.list.iter().map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect())).collect();
     Ok((w, h, channels))
 }
 

@@ -81,7 +81,10 @@ pub fn write_frame(out: &Path, frame: &Frame, aovs: &[Aov], object_names: &[Stri
             Aov::Normal => rgb_channels("", &frame.normal),
             Aov::Albedo => rgb_channels("", &frame.albedo),
             // Ids as floats (exact below 2^24); -1 marks background.
-            Aov::Id => vec![("id".to_string(), frame.object_id.iter().map(|&i| if i == u32::MAX { -1.0 } else { i as f32 }).collect())],
+            Aov::Id => vec![(
+                "id".to_string(),
+                frame.object_id.iter().map(|&i| if i == u32::MAX { -1.0 } else { i as f32 }).collect(),
+            )],
             Aov::Mask => (0..frame.object_count as usize)
                 .map(|k| (object_names.get(k).cloned().unwrap_or_else(|| format!("object{k}")), frame.mask(k)))
                 .collect(),

@@ -44,7 +44,9 @@ impl Loader<'_> {
             return Err(self.err("format", format!("expected \"{FORMAT}\", found \"{}\"", f.format)));
         }
         if f.version != VERSION {
-            return Err(self.err("version", format!("this psdr reads version {VERSION}, the file is version {}", f.version)));
+            return Err(
+                self.err("version", format!("this psdr reads version {VERSION}, the file is version {}", f.version))
+            );
         }
         let camera = self.camera(&f.camera)?;
         let d = RenderSettings::default();
@@ -74,7 +76,9 @@ impl Loader<'_> {
 
     fn camera(&self, c: &CameraFile) -> Result<Camera> {
         if c.width == 0 || c.height == 0 {
-            return Err(self.err("camera.width/height", format!("resolution {}x{} must be positive", c.width, c.height)));
+            return Err(
+                self.err("camera.width/height", format!("resolution {}x{} must be positive", c.width, c.height))
+            );
         }
         if !(c.fov_y > 0.0 && c.fov_y < 180.0) {
             return Err(self.err("camera.fov_y", format!("{} is not in (0, 180) degrees", c.fov_y)));
@@ -127,7 +131,9 @@ impl Loader<'_> {
         match v {
             ValueFile::Number(x) => Ok(Scalar::Constant(*x)),
             ValueFile::Rgb(_) => Err(self.err(field, "expected one number or a texture, found an RGB triple")),
-            ValueFile::Texture(t) => Ok(Scalar::Texture(self.texture(&t.texture, field, t.srgb.unwrap_or(false), 1)?)),
+            ValueFile::Texture(t) => {
+                Ok(Scalar::Texture(self.texture(&t.texture, field, t.srgb.unwrap_or(false), 1)?))
+            }
         }
     }
 
@@ -187,7 +193,8 @@ impl Loader<'_> {
                 (vec![sphere_mesh(r, s.rings.unwrap_or(32), s.segments.unwrap_or(64), inward)], vec![None])
             }
             "obj" => {
-                let rel = s.file.as_ref().ok_or_else(|| self.err(format!("{field}.file"), "an obj shape needs a file"))?;
+                let rel =
+                    s.file.as_ref().ok_or_else(|| self.err(format!("{field}.file"), "an obj shape needs a file"))?;
                 let path = self.base.join(rel);
                 if !path.is_file() {
                     return Err(self.err(format!("{field}.file"), format!("OBJ file {} not found", path.display())));
@@ -196,18 +203,26 @@ impl Loader<'_> {
                 (obj.parts, obj.part_mtl)
             }
             other => {
-                return Err(self.err(format!("{field}.type"), format!("unknown shape type '{other}' (obj, rectangle, box, sphere)")))
+                return Err(self.err(
+                    format!("{field}.type"),
+                    format!("unknown shape type '{other}' (obj, rectangle, box, sphere)"),
+                ))
             }
         };
         for (name, _) in s.part_materials.iter() {
             if !parts.iter().any(|p| &p.name == name) {
                 let known: Vec<_> = parts.iter().map(|p| p.name.as_str()).collect();
-                return Err(self.err(format!("{field}.part_materials.{name}"), format!("no such part; parts are {known:?}")));
+                return Err(
+                    self.err(format!("{field}.part_materials.{name}"), format!("no such part; parts are {known:?}"))
+                );
             }
         }
         let file = self.file;
         let find = |name: &str, f: &str, materials: &[Material]| {
-            materials.iter().position(|m| m.name == name).ok_or_else(|| Error::scene(file, f, format!("unknown material '{name}'")))
+            materials
+                .iter()
+                .position(|m| m.name == name)
+                .ok_or_else(|| Error::scene(file, f, format!("unknown material '{name}'")))
         };
         for (k, part) in parts.iter_mut().enumerate() {
             part.material = if let Some(m) = s.part_materials.get(&part.name) {
@@ -227,13 +242,24 @@ impl Loader<'_> {
             Some(e) => match e.radiance {
                 ValueFile::Number(x) => Some(Emitter { radiance: Vec3::splat(x), two_sided: e.two_sided }),
                 ValueFile::Rgb(c) => Some(Emitter { radiance: Vec3::from(c), two_sided: e.two_sided }),
-                ValueFile::Texture(_) => return Err(self.err(format!("{field}.emitter.radiance"), "textured emitters are not supported; give an RGB triple")),
+                ValueFile::Texture(_) => {
+                    return Err(self.err(
+                        format!("{field}.emitter.radiance"),
+                        "textured emitters are not supported; give an RGB triple",
+                    ))
+                }
             },
         };
         Ok(Object { name: s.name.clone(), parts, pose, emitter })
     }
 
-    fn mtl_material(&mut self, s: &ShapeFile, mtl: &super::obj::MtlMaterial, materials: &mut Vec<Material>, field: &str) -> Result<usize> {
+    fn mtl_material(
+        &mut self,
+        s: &ShapeFile,
+        mtl: &super::obj::MtlMaterial,
+        materials: &mut Vec<Material>,
+        field: &str,
+    ) -> Result<usize> {
         let name = format!("{}/{}", s.name, mtl.name);
         if let Some(i) = materials.iter().position(|m| m.name == name) {
             return Ok(i);
@@ -242,10 +268,16 @@ impl Loader<'_> {
         m.roughness = Scalar::Constant(0.5);
         m.specular = Scalar::Constant(0.5);
         if let Some(tex) = &mtl.diffuse_texture {
-            let obj_dir = self.base.join(s.file.as_deref().unwrap_or("")).parent().map(Path::to_path_buf).unwrap_or_default();
+            let obj_dir =
+                self.base.join(s.file.as_deref().unwrap_or("")).parent().map(Path::to_path_buf).unwrap_or_default();
             let rel = obj_dir.join(tex);
             let rel = rel.strip_prefix(&self.base).map(Path::to_path_buf).unwrap_or(rel);
-            m.albedo = Color::Texture(self.texture(&rel.to_string_lossy(), &format!("{field}.file (map_Kd of '{}')", mtl.name), true, 3)?);
+            m.albedo = Color::Texture(self.texture(
+                &rel.to_string_lossy(),
+                &format!("{field}.file (map_Kd of '{}')", mtl.name),
+                true,
+                3,
+            )?);
         }
         materials.push(m);
         Ok(materials.len() - 1)
@@ -266,7 +298,9 @@ impl Loader<'_> {
             (None, Some(q)) => {
                 let q = Quat::from_array(q);
                 if !q.is_finite() || (q.length() - 1.0).abs() > 1e-3 {
-                    return Err(self.err(format!("{field}.quaternion"), "must be a finite unit quaternion [x, y, z, w]"));
+                    return Err(
+                        self.err(format!("{field}.quaternion"), "must be a finite unit quaternion [x, y, z, w]")
+                    );
                 }
                 q.normalize()
             }

@@ -34,10 +34,7 @@ impl UvTransform {
     /// Rows of the 2x3 affine matrix: (a, b, tx) and (c, d, ty).
     pub fn rows(&self) -> [[f32; 3]; 2] {
         let (s, c) = self.rotation_deg.to_radians().sin_cos();
-        [
-            [c * self.scale.x, -s * self.scale.y, self.offset.x],
-            [s * self.scale.x, c * self.scale.y, self.offset.y],
-        ]
+        [[c * self.scale.x, -s * self.scale.y, self.offset.x], [s * self.scale.x, c * self.scale.y, self.offset.y]]
     }
 }
 

@@ -9,13 +9,13 @@ mod mesh;
 mod obj;
 mod pose;
 mod primitives;
-pub mod validate;
 mod texture;
+pub mod validate;
 
 pub use camera::Camera;
 pub use load::load_scene;
-pub use material::{Material, Scalar, Color, UvTransform};
-pub use mesh::{MeshPart, Object, Emitter};
+pub use material::{Color, Material, Scalar, UvTransform};
+pub use mesh::{Emitter, MeshPart, Object};
 pub use pose::Pose;
 pub use primitives::{box_mesh, rectangle_mesh, sphere_mesh};
 

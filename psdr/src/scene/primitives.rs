@@ -56,7 +56,8 @@ pub fn box_mesh(size: Vec3, inward: bool) -> MeshPart {
 /// UV sphere with smooth normals; `rings` >= 2 latitude bands, `segments` >= 3 longitude slices.
 pub fn sphere_mesh(radius: f32, rings: u32, segments: u32, inward: bool) -> MeshPart {
     let (rings, segments) = (rings.max(2), segments.max(3));
-    let mut m = MeshPart { name: "sphere".into(), normals: Some(Vec::new()), uvs: Some(Vec::new()), ..Default::default() };
+    let mut m =
+        MeshPart { name: "sphere".into(), normals: Some(Vec::new()), uvs: Some(Vec::new()), ..Default::default() };
     for r in 0..=rings {
         let theta = std::f32::consts::PI * r as f32 / rings as f32;
         for s in 0..=segments {

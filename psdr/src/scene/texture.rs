@@ -61,11 +61,7 @@ impl Texture {
         if let Some(bad) = rgb.iter().position(|v: &f32| !v.is_finite()) {
             return Err(Error::io(path, format!("texel {} is not finite", bad / 3)));
         }
-        let texels = if channels == 1 {
-            rgb.chunks_exact(3).map(|c| c[0]).collect()
-        } else {
-            rgb
-        };
+        let texels = if channels == 1 { rgb.chunks_exact(3).map(|c| c[0]).collect() } else { rgb };
         Ok(Texture { path: Some(path.to_path_buf()), width, height, channels, texels })
     }
 }

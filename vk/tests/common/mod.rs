@@ -52,11 +52,7 @@ pub fn assert_no_validation_errors(ctx: &Context) {
         errors.is_empty(),
         "{} validation error(s):\n{}",
         errors.len(),
-        errors
-            .iter()
-            .map(|m| m.to_string())
-            .collect::<Vec<_>>()
-            .join("\n")
+        errors.iter().map(|m| m.to_string()).collect::<Vec<_>>().join("\n")
     );
 }
 
