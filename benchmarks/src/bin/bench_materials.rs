@@ -1,6 +1,7 @@
 //! Forward and backward time of every library material at 256 and 512, written
 //! to benchmarks/results/materials.csv (median of repeated runs, release build):
-//! `cargo run -p psdr-benchmarks --release --bin bench_materials [-- OUT.csv]`.
+//! `cargo run -p psdr-benchmarks --release --bin bench_materials [-- OUT.csv]`; also writes OUT.svg, a bar chart
+//! of forward and backward time per material at 512.
 
 use psdr_materials::{library, Evaluator, RenderGrads};
 use std::time::Instant;
@@ -21,14 +22,11 @@ fn main() -> anyhow::Result<()> {
     let out = std::env::args()
         .nth(1)
         .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| {
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/materials.csv")
-        });
+        .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/materials.csv"));
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let mut csv = String::from(
-        "material,size,threads,float_params,nodes_forward_ms,forward_ms,backward_ms\n",
-    );
+    let mut csv = String::from("material,size,threads,float_params,nodes_forward_ms,forward_ms,backward_ms\n");
     let mut sums = [(0.0, 0.0, 0usize); 2];
+    let mut bars = vec![];
     for name in library::names() {
         let graph = library::load(name).expect("listed")?;
         let params = graph.default_params();
@@ -44,9 +42,7 @@ fn main() -> anyhow::Result<()> {
                 reps,
             );
             let n2 = size * size;
-            let ga: Vec<f32> = (0..n2 * 3)
-                .map(|i| ((i * 7919 % 101) as f32 - 50.0) * 1e-3)
-                .collect();
+            let ga: Vec<f32> = (0..n2 * 3).map(|i| ((i * 7919 % 101) as f32 - 50.0) * 1e-3).collect();
             let gr: Vec<f32> = ga[..n2].to_vec();
             let has_h = ev.maps().height.is_some();
             let grads = RenderGrads {
@@ -58,10 +54,10 @@ fn main() -> anyhow::Result<()> {
             let mut grad = vec![0.0; graph.num_floats()];
             let bwd = median_ms(|| ev.backward(&grads, &mut grad), reps);
             println!("{name:<22} {size:>4}  forward {fwd:8.2} ms  backward {bwd:8.2} ms");
-            csv += &format!(
-                "{name},{size},{threads},{},{eval_ms:.3},{fwd:.3},{bwd:.3}\n",
-                graph.num_floats()
-            );
+            csv += &format!("{name},{size},{threads},{},{eval_ms:.3},{fwd:.3},{bwd:.3}\n", graph.num_floats());
+            if size == 512 {
+                bars.push((name.to_string(), fwd, bwd));
+            }
             sums[si].0 += fwd;
             sums[si].1 += bwd;
             sums[si].2 += 1;
@@ -69,13 +65,50 @@ fn main() -> anyhow::Result<()> {
     }
     for (si, size) in [256, 512].into_iter().enumerate() {
         let (f, b, n) = sums[si];
-        println!(
-            "mean at {size}: forward {:.2} ms, backward {:.2} ms over {n} materials",
-            f / n as f64,
-            b / n as f64
-        );
+        println!("mean at {size}: forward {:.2} ms, backward {:.2} ms over {n} materials", f / n as f64, b / n as f64);
+    }
+    if let Some(dir) = out.parent() {
+        std::fs::create_dir_all(dir)?;
     }
     std::fs::write(&out, csv)?;
-    println!("wrote {}", out.display());
+    let svg = out.with_extension("svg");
+    std::fs::write(&svg, bar_chart(&bars, threads))?;
+    println!("wrote {} and {}", out.display(), svg.display());
     Ok(())
+}
+
+/// Horizontal bars, one row per material: forward (blue) and backward (orange) milliseconds at 512.
+fn bar_chart(rows: &[(String, f64, f64)], threads: usize) -> String {
+    let (label_w, plot_w, row_h, top) = (170.0, 520.0, 14.0, 40.0);
+    let max = rows.iter().map(|r| r.1.max(r.2)).fold(1e-9, f64::max);
+    let h = top + row_h * rows.len() as f64 + 30.0;
+    let mut s = format!(
+        "<svg xmlns='http://www.w3.org/2000/svg' width='{}' height='{h}' font-family='sans-serif' font-size='10'>\n\
+         <rect width='100%' height='100%' fill='white'/>\n\
+         <text x='10' y='16' font-size='13'>Material graphs at 512x512: forward (blue) and backward (orange) ms, {threads} threads</text>\n",
+        label_w + plot_w + 60.0
+    );
+    for (i, (name, fwd, bwd)) in rows.iter().enumerate() {
+        let y = top + row_h * i as f64;
+        let (wf, wb) = (plot_w * fwd / max, plot_w * bwd / max);
+        s += &format!(
+            "<text x='{}' y='{}' text-anchor='end'>{name}</text>\n\
+             <rect x='{label_w}' y='{}' width='{wf:.1}' height='5' fill='#3b6fb6'/>\n\
+             <rect x='{label_w}' y='{}' width='{wb:.1}' height='5' fill='#e07b39'/>\n\
+             <text x='{:.1}' y='{}'>{fwd:.1} / {bwd:.1}</text>\n",
+            label_w - 4.0,
+            y + 9.0,
+            y + 1.0,
+            y + 6.5,
+            label_w + wf.max(wb) + 4.0,
+            y + 9.0
+        );
+    }
+    s += &format!(
+        "<text x='{label_w}' y='{}'>0 ms</text><text x='{}' y='{}' text-anchor='end'>{max:.0} ms</text>\n</svg>\n",
+        h - 10.0,
+        label_w + plot_w,
+        h - 10.0
+    );
+    s
 }
