@@ -8,6 +8,7 @@ pub mod backend;
 pub mod cli;
 pub mod error;
 pub mod export;
+pub mod grad;
 pub mod output;
 pub mod render;
 pub mod scene;

@@ -1,6 +1,7 @@
 //! The `psdr` command line (clap). One file per subcommand.
 
 mod export_cmd;
+mod grad_cmd;
 mod materials_cmd;
 mod render_cmd;
 
@@ -24,6 +25,8 @@ enum Command {
     Render(render_cmd::RenderArgs),
     /// Export a scene for another renderer.
     Export(export_cmd::ExportArgs),
+    /// Gradient of an image loss with respect to one scene parameter.
+    Grad(grad_cmd::GradArgs),
     /// The procedural material library: list, render maps, contact sheet.
     Materials(materials_cmd::MaterialsArgs),
 }
@@ -34,6 +37,7 @@ pub fn main() -> ExitCode {
         Command::Render(a) => render_cmd::run(a),
         Command::Export(a) => export_cmd::run(a),
         Command::Materials(a) => materials_cmd::run(a),
+        Command::Grad(a) => grad_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
