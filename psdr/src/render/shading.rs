@@ -19,6 +19,8 @@ pub struct SurfacePoint {
     /// True when the ray hit the side the triangle's winding faces (used by one-sided emitters).
     pub front: bool,
     pub bsdf: BsdfParams,
+    /// Texture coordinates after the material's uv transform (where the textures were read).
+    pub uv: Vec2,
     pub object: u32,
     pub triangle: u32,
 }
@@ -144,6 +146,7 @@ pub fn surface_point(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> Surfa
             roughness: roughness.clamp(0.0, 1.0),
             specular: specular.clamp(0.0, 1.0),
         },
+        uv: uvt,
         object: tri.object,
         triangle: ti,
     }
