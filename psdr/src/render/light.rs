@@ -28,6 +28,8 @@ pub struct LightSample {
     pub two_sided: bool,
     /// Area density of the sampled point (selection pmf / area).
     pub pdf_area: f32,
+    /// Index of the emitter (what the adjoint credits).
+    pub emitter: u32,
 }
 
 /// Picks a light with `u_select` and a uniform point on its triangle with (u1, u2).
@@ -49,6 +51,7 @@ pub fn sample_light(d: &SceneData, count: u32, u_select: f32, u1: f32, u2: f32) 
         radiance: Vec3::from(em.radiance),
         two_sided: em.two_sided != 0,
         pdf_area: light.pmf / area,
+        emitter: light.emitter,
     }
 }
 
