@@ -98,7 +98,7 @@ pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32
         origin = offset_origin(sp.p, sp.ng, dir);
         if depth + 1 >= fp.rr_depth {
             let q = beta.max_element().min(0.95);
-            if !(s.bounce(depth, DIM_ROULETTE) < q) {
+            if s.bounce(depth, DIM_ROULETTE) >= q || q.is_nan() {
                 break;
             }
             beta /= q;
