@@ -1,7 +1,8 @@
-//! `psdr grad SCENE --param PATH [--loss mean|l2-to TARGET.exr] --fd STEP [--replicas K] [--component I]`
+//! `psdr grad SCENE --param PATH [--loss mean|l2-to --target T.exr] [--fd STEP] [--replicas K] [--component I]`:
+//! the analytic gradient (reverse mode) and, with --fd, central finite differences, each with a standard error.
 
 use crate::backend::{create_backend, BackendKind};
-use crate::grad::{central_difference, FdOptions, ImageLoss, Output, ParamPath};
+use crate::grad::{central_difference, interior_gradient, FdOptions, ImageLoss, Output, ParamPath};
 use crate::scene::load_scene;
 use anyhow::bail;
 use clap::Args;
@@ -21,10 +22,10 @@ pub struct GradArgs {
     /// Target radiance EXR for `--loss l2-to` (same resolution as the scene).
     #[arg(long)]
     target: Option<PathBuf>,
-    /// Central finite differences with this step (in the parameter's units).
+    /// Also central finite differences with this step (in the parameter's units), as a check.
     #[arg(long)]
     fd: Option<f32>,
-    /// Independent seed pairs for the finite differences (standard error needs at least 2).
+    /// Independent seeds for both estimates (a standard error needs at least 2).
     #[arg(long, default_value_t = 4)]
     replicas: u32,
     /// Only these components of the parameter (comma separated); default all.
@@ -51,28 +52,41 @@ pub fn run(a: GradArgs) -> anyhow::Result<()> {
     };
     let value = a.param.get(&scene)?;
     println!("{} = {:?}", a.param, value);
-    let Some(step) = a.fd else {
-        bail!(
-            "analytic (AD) gradients are not implemented yet; pass --fd STEP for central finite differences \
-             with standard errors"
-        );
-    };
     let mut backend = create_backend(a.backend)?;
+    let components: Vec<usize> = if a.component.is_empty() { (0..value.len()).collect() } else { a.component.clone() };
     let t = Instant::now();
-    let opts = FdOptions { step, replicas: a.replicas, components: a.component };
-    let fd = central_difference(&scene, &a.param, &loss, &opts, backend.as_mut())?;
-    for ((c, m), se) in fd.components.iter().zip(&fd.mean).zip(&fd.std_err) {
-        println!("d loss / d {}[{c}]  FD {m:+.6e}  ± {se:.2e} (1 s.e.)", a.param);
+    let ad = interior_gradient(&scene, std::slice::from_ref(&a.param), &loss, a.replicas, backend.as_mut());
+    let ad_s = t.elapsed().as_secs_f64();
+    let fd = match a.fd {
+        Some(step) => {
+            let t = Instant::now();
+            let opts = FdOptions { step, replicas: a.replicas, components: components.clone() };
+            Some((central_difference(&scene, &a.param, &loss, &opts, backend.as_mut())?, t.elapsed().as_secs_f64()))
+        }
+        None => None,
+    };
+    if let (Err(e), None) = (&ad, &fd) {
+        anyhow::bail!("{e}");
     }
-    println!(
-        "{} renders of {}x{} at {} spp on {} in {:.2} s (step {step}, {} replicas)",
-        fd.renders,
-        scene.camera.width,
-        scene.camera.height,
-        scene.settings.spp,
-        backend.name(),
-        t.elapsed().as_secs_f64(),
-        fd.replicas
-    );
+    for (k, &c) in components.iter().enumerate() {
+        let mut line = format!("d loss / d {}[{c}]", a.param);
+        match &ad {
+            Ok(g) if c < g.mean.len() => line += &format!("  AD {:+.6e} ± {:.2e}", g.mean[c], g.std_err[c]),
+            Ok(_) => anyhow::bail!("{}: component {c} does not exist", a.param),
+            Err(_) => line += "  AD n/a",
+        }
+        if let Some((f, _)) = &fd {
+            line += &format!("  FD {:+.6e} ± {:.2e}", f.mean[k], f.std_err[k]);
+        }
+        println!("{line}   (± 1 standard error over {} seeds)", a.replicas);
+    }
+    let (w, h, spp) = (scene.camera.width, scene.camera.height, scene.settings.spp);
+    match &ad {
+        Ok(_) => println!("AD: {w}x{h} at {spp} spp, {} replicas, {ad_s:.2} s (interior term, CPU)", a.replicas),
+        Err(e) => println!("AD: {e}"),
+    }
+    if let Some((f, secs)) = &fd {
+        println!("FD: {} renders at {spp} spp on {} in {secs:.2} s", f.renders, backend.name());
+    }
     Ok(())
 }

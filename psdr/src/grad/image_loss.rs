@@ -43,6 +43,23 @@ impl ImageLoss {
         Ok(ImageLoss::L2To { output: Output::Radiance, target })
     }
 
+    /// dLoss/d(radiance) per pixel channel. Only radiance losses have an analytic gradient so far: depth and
+    /// mask derivatives come entirely from boundary terms, which are not implemented yet.
+    pub fn radiance_adjoint(&self, f: &Frame) -> Result<Vec<f32>> {
+        let n = f.radiance.len().max(1) as f32;
+        match self {
+            ImageLoss::Mean(Output::Radiance) => Ok(vec![1.0 / n; f.radiance.len()]),
+            ImageLoss::L2To { output: Output::Radiance, target } => {
+                self.eval(f)?; // checks the size
+                Ok(f.radiance.iter().zip(target).map(|(&a, &b)| 2.0 * (a - b) / n).collect())
+            }
+            _ => Err(Error::Invalid(
+                "analytic gradients of depth and mask losses need boundary terms (not implemented yet); use --fd"
+                    .into(),
+            )),
+        }
+    }
+
     pub fn eval(&self, f: &Frame) -> Result<f64> {
         match self {
             ImageLoss::Mean(o) => {

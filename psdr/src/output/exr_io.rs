@@ -21,7 +21,11 @@ pub fn write_exr_channels(path: &Path, width: u32, height: u32, channels: &[(Str
 }
 
 /// Reads every channel of the first layer as f32, with its name.
-pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Vec<(String, Vec<f32>)>)> {
+/// Named channels of an image, each row-major from the top.
+pub type Channels = Vec<(String, Vec<f32>)>;
+
+/// (width, height, channels).
+pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Channels)> {
     let image = read_all_flat_layers_from_file(path).map_err(|e| Error::io(path, e))?;
     let layer = image.layer_data.first().ok_or_else(|| Error::io(path, "EXR has no layers"))?;
     let (w, h) = (layer.size.width() as u32, layer.size.height() as u32);
