@@ -8,7 +8,7 @@
 
 use psdr::backend::CpuBackend;
 use psdr::grad::{
-    central_difference, interior_gradient, radiance_vjp, FdOptions, GradLayout, ImageLoss, Output, ParamPath,
+    analytic_gradient, central_difference, radiance_vjp, AdOptions, FdOptions, GradLayout, ImageLoss, Output, ParamPath,
 };
 use psdr::render::{render_cpu, SceneData};
 use psdr::scene::{load_scene, Scene};
@@ -28,7 +28,14 @@ fn room(width: u32, height: u32, spp: u32) -> Scene {
 fn check_against_fd(scene: &Scene, path: &str, step: f32, components: &[usize]) {
     let p: ParamPath = path.parse().unwrap();
     let loss = ImageLoss::Mean(Output::Radiance);
-    let ad = interior_gradient(scene, std::slice::from_ref(&p), &loss, REPLICAS, &mut CpuBackend).unwrap();
+    let ad = analytic_gradient(
+        scene,
+        std::slice::from_ref(&p),
+        &loss,
+        &AdOptions { replicas: REPLICAS, edge_samples: 0 },
+        &mut CpuBackend,
+    )
+    .unwrap();
     let opts = FdOptions { step, replicas: REPLICAS, components: components.to_vec() };
     let fd = central_difference(scene, &p, &loss, &opts, &mut CpuBackend).unwrap();
     for (k, &c) in components.iter().enumerate() {
@@ -118,7 +125,14 @@ fn unused_material_has_zero_gradient() {
     let mut s = room(24, 18, 2);
     s.materials.push(psdr::scene::Material::diffuse("unused", glam::Vec3::splat(0.5)));
     let p: ParamPath = "material/unused/albedo".parse().unwrap();
-    let ad = interior_gradient(&s, &[p], &ImageLoss::Mean(Output::Radiance), 2, &mut CpuBackend).unwrap();
+    let ad = analytic_gradient(
+        &s,
+        &[p],
+        &ImageLoss::Mean(Output::Radiance),
+        &AdOptions { replicas: 2, edge_samples: 0 },
+        &mut CpuBackend,
+    )
+    .unwrap();
     assert_eq!(ad.mean, vec![0.0; 3]);
 }
 

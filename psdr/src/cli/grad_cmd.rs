@@ -2,7 +2,7 @@
 //! the analytic gradient (reverse mode) and, with --fd, central finite differences, each with a standard error.
 
 use crate::backend::{create_backend, BackendKind};
-use crate::grad::{central_difference, interior_gradient, FdOptions, ImageLoss, Output, ParamPath};
+use crate::grad::{analytic_gradient, central_difference, AdOptions, FdOptions, ImageLoss, Output, ParamPath};
 use crate::scene::load_scene;
 use anyhow::bail;
 use clap::Args;
@@ -19,7 +19,10 @@ pub struct GradArgs {
     /// `mean` (mean radiance) or `l2-to` (mean squared difference to --target).
     #[arg(long, default_value = "mean")]
     loss: String,
-    /// Target radiance EXR for `--loss l2-to` (same resolution as the scene).
+    /// What the loss reads: radiance, depth, or mask:OBJECT (that object's coverage mask).
+    #[arg(long, default_value = "radiance")]
+    output: String,
+    /// Target EXR for `--loss l2-to` (same resolution as the scene; `psdr render --aov` writes usable targets).
     #[arg(long)]
     target: Option<PathBuf>,
     /// Also central finite differences with this step (in the parameter's units), as a check.
@@ -31,6 +34,9 @@ pub struct GradArgs {
     /// Only these components of the parameter (comma separated); default all.
     #[arg(long, value_delimiter = ',')]
     component: Vec<usize>,
+    /// Boundary (edge) samples per gradient evaluation.
+    #[arg(long, default_value_t = 1 << 16)]
+    sppe: u32,
     /// Samples per pixel (overrides the scene's render.spp).
     #[arg(long)]
     spp: Option<u32>,
@@ -43,9 +49,18 @@ pub fn run(a: GradArgs) -> anyhow::Result<()> {
     if let Some(spp) = a.spp {
         scene.settings.spp = spp;
     }
+    let (output, channel) = match a.output.split_once(':') {
+        None if a.output == "radiance" => (Output::Radiance, None),
+        None if a.output == "depth" => (Output::Depth, None),
+        Some(("mask", name)) => match scene.object_index(name) {
+            Some(o) => (Output::Mask(o), Some(name)),
+            None => bail!("--output mask:{name}: no object named '{name}'"),
+        },
+        _ => bail!("--output {}: expected radiance, depth or mask:OBJECT", a.output),
+    };
     let loss = match (a.loss.as_str(), &a.target) {
-        ("mean", None) => ImageLoss::Mean(Output::Radiance),
-        ("l2-to", Some(t)) => ImageLoss::l2_to_exr(t)?,
+        ("mean", None) => ImageLoss::Mean(output),
+        ("l2-to", Some(t)) => ImageLoss::l2_to_exr(t, output, channel)?,
         ("l2-to", None) => bail!("--loss l2-to needs --target TARGET.exr"),
         ("mean", Some(_)) => bail!("--target is only used with --loss l2-to"),
         (other, _) => bail!("unknown loss '{other}' (mean, l2-to)"),
@@ -55,7 +70,8 @@ pub fn run(a: GradArgs) -> anyhow::Result<()> {
     let mut backend = create_backend(a.backend)?;
     let components: Vec<usize> = if a.component.is_empty() { (0..value.len()).collect() } else { a.component.clone() };
     let t = Instant::now();
-    let ad = interior_gradient(&scene, std::slice::from_ref(&a.param), &loss, a.replicas, backend.as_mut());
+    let ad_opts = AdOptions { replicas: a.replicas, edge_samples: a.sppe };
+    let ad = analytic_gradient(&scene, std::slice::from_ref(&a.param), &loss, &ad_opts, backend.as_mut());
     let ad_s = t.elapsed().as_secs_f64();
     let fd = match a.fd {
         Some(step) => {
@@ -82,7 +98,9 @@ pub fn run(a: GradArgs) -> anyhow::Result<()> {
     }
     let (w, h, spp) = (scene.camera.width, scene.camera.height, scene.settings.spp);
     match &ad {
-        Ok(_) => println!("AD: {w}x{h} at {spp} spp, {} replicas, {ad_s:.2} s (interior term, CPU)", a.replicas),
+        Ok(_) => {
+            println!("AD: {w}x{h} at {spp} spp, {} edge samples, {} replicas, {ad_s:.2} s (CPU)", a.sppe, a.replicas)
+        }
         Err(e) => println!("AD: {e}"),
     }
     if let Some((f, secs)) = &fd {

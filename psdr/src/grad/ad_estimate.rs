@@ -1,10 +1,12 @@
 //! Analytic (reverse-mode) gradient of an image loss, averaged over independent seeds with a standard error, so
 //! it can be compared with finite differences on equal terms.
 
-use super::{mean_and_std_err, radiance_vjp, GradLayout, ImageLoss, ParamPath};
+use super::aov_vjp::aov_vjp;
+use super::pose_velocity::PoseLayout;
+use super::{mean_and_std_err, radiance_vjp, GradLayout, ImageLoss, Output, ParamPath};
 use crate::backend::Backend;
 use crate::error::Result;
-use crate::render::SceneData;
+use crate::render::{Frame, SceneData};
 use crate::scene::Scene;
 
 /// Per gradient float: mean over replicas and its standard error (NaN with one replica).
@@ -15,46 +17,81 @@ pub struct AdEstimate {
     pub replicas: u32,
 }
 
+#[derive(Clone, Copy, Debug)]
+pub struct AdOptions {
+    /// Independent seeds averaged (the standard error needs at least 2).
+    pub replicas: u32,
+    /// Boundary (edge) samples per gradient evaluation (sppe).
+    pub edge_samples: u32,
+}
+
+impl Default for AdOptions {
+    fn default() -> Self {
+        AdOptions { replicas: 1, edge_samples: 1 << 16 }
+    }
+}
+
 /// Seeds of the adjoint pass are offset from the primal's so that a nonlinear loss (L2) multiplies independent
 /// estimates of the image and of its derivative (the same seed would bias the product).
 const ADJOINT_SEED_OFFSET: u32 = 0x9e37_79b9;
 
-pub fn interior_gradient(
+/// dLoss/dθ of `params`: radiance losses w.r.t. lights and materials (interior term), depth and mask losses
+/// w.r.t. object poses (interior + primary boundary).
+pub fn analytic_gradient(
     scene: &Scene,
     params: &[ParamPath],
     loss: &ImageLoss,
-    replicas: u32,
+    opts: &AdOptions,
     backend: &mut dyn Backend,
 ) -> Result<AdEstimate> {
-    let layout = GradLayout::new(scene, params)?;
+    let radiance = matches!(loss.output(), Output::Radiance);
+    let (material, pose) = if radiance {
+        (Some(GradLayout::new(scene, params)?), None)
+    } else {
+        (None, Some(PoseLayout::new(scene, params)?))
+    };
     let data = SceneData::build(scene)?;
+    let blank = blank_frame(scene);
     let mut runs = vec![];
-    for r in 0..replicas.max(1) {
+    for r in 0..opts.replicas.max(1) {
         let mut settings = scene.settings.clone();
         settings.seed = scene.settings.seed.wrapping_add(r);
-        let adjoint = match loss {
-            ImageLoss::Mean(_) => loss.radiance_adjoint(&dummy_frame(scene))?,
-            _ => loss.radiance_adjoint(&backend.render(&data, &settings, &|_, _| {})?)?,
+        let adjoint = if loss.needs_primal() {
+            loss.adjoint(&backend.render(&data, &settings, &|_, _| {})?)?
+        } else {
+            loss.adjoint(&blank)?
         };
         settings.seed = settings.seed.wrapping_add(ADJOINT_SEED_OFFSET);
-        runs.push(radiance_vjp(&data, &settings, &layout, &adjoint)?);
+        runs.push(match (&material, &pose) {
+            (Some(l), _) => radiance_vjp(&data, &settings, l, &adjoint)?,
+            (_, Some(p)) => aov_vjp(scene, &data, &settings, p, loss.output(), &adjoint, opts.edge_samples)?,
+            _ => unreachable!(),
+        });
     }
+    let len = runs[0].len();
     let (mut mean, mut std_err) = (vec![], vec![]);
-    for i in 0..layout.len {
+    for i in 0..len {
         let (m, se) = mean_and_std_err(&runs.iter().map(|g| g[i]).collect::<Vec<_>>());
         mean.push(m);
         std_err.push(se);
     }
-    Ok(AdEstimate { mean, std_err, replicas: replicas.max(1) })
+    Ok(AdEstimate { mean, std_err, replicas: opts.replicas.max(1) })
 }
 
-/// A frame of the scene's size with black radiance: enough for losses whose adjoint ignores the image.
-fn dummy_frame(scene: &Scene) -> crate::render::Frame {
+/// A black frame of the scene's size (all AOVs zero): enough for losses whose adjoint ignores the image.
+fn blank_frame(scene: &Scene) -> Frame {
     let n = (scene.camera.width * scene.camera.height) as usize;
-    crate::render::Frame {
+    let objects = scene.objects.len();
+    Frame {
         width: scene.camera.width,
         height: scene.camera.height,
+        object_count: objects as u32,
         radiance: vec![0.0; n * 3],
-        ..Default::default()
+        depth: vec![0.0; n],
+        normal: vec![0.0; n * 3],
+        albedo: vec![0.0; n * 3],
+        object_id: vec![u32::MAX; n],
+        coverage: vec![0.0; n * objects],
+        rays: 0,
     }
 }

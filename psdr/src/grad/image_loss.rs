@@ -1,7 +1,7 @@
 //! Scalar losses of a rendered frame, the quantity whose gradient `psdr grad` reports.
 
 use crate::error::{Error, Result};
-use crate::output::read_exr_rgb;
+use crate::output::{read_exr_channels, read_exr_rgb};
 use crate::render::Frame;
 use std::path::Path;
 
@@ -37,26 +37,48 @@ pub enum ImageLoss {
 }
 
 impl ImageLoss {
-    /// L2 to the radiance in an EXR (its R, G, B channels).
-    pub fn l2_to_exr(path: &Path) -> Result<ImageLoss> {
-        let (_, _, target) = read_exr_rgb(path)?;
-        Ok(ImageLoss::L2To { output: Output::Radiance, target })
+    /// L2 to an EXR: its R, G, B channels for radiance, its `channel` (or only channel) otherwise — the files
+    /// `psdr render --aov depth,mask` writes can serve as targets directly.
+    pub fn l2_to_exr(path: &Path, output: Output, channel: Option<&str>) -> Result<ImageLoss> {
+        let target = match output {
+            Output::Radiance => read_exr_rgb(path)?.2,
+            _ => {
+                let (_, _, channels) = read_exr_channels(path)?;
+                let names: Vec<&str> = channels.iter().map(|c| c.0.as_str()).collect();
+                let pick = match channel {
+                    Some(name) => channels.iter().find(|c| c.0 == name),
+                    None if channels.len() == 1 => channels.first(),
+                    None => None,
+                };
+                pick.ok_or_else(|| Error::io(path, format!("no target channel {channel:?} among {names:?}")))?.1.clone()
+            }
+        };
+        Ok(ImageLoss::L2To { output, target })
     }
 
-    /// dLoss/d(radiance) per pixel channel. Only radiance losses have an analytic gradient so far: depth and
-    /// mask derivatives come entirely from boundary terms, which are not implemented yet.
-    pub fn radiance_adjoint(&self, f: &Frame) -> Result<Vec<f32>> {
-        let n = f.radiance.len().max(1) as f32;
+    /// The output this loss reads.
+    pub fn output(&self) -> &Output {
         match self {
-            ImageLoss::Mean(Output::Radiance) => Ok(vec![1.0 / n; f.radiance.len()]),
-            ImageLoss::L2To { output: Output::Radiance, target } => {
+            ImageLoss::Mean(o) | ImageLoss::L2To { output: o, .. } => o,
+        }
+    }
+
+    /// True when the adjoint depends on the rendered image (so a primal render must come first).
+    pub fn needs_primal(&self) -> bool {
+        !matches!(self, ImageLoss::Mean(_))
+    }
+
+    /// dLoss/d(output values), laid out like `Output::values`. `f` may be any frame of the right size when
+    /// `needs_primal` is false.
+    pub fn adjoint(&self, f: &Frame) -> Result<Vec<f32>> {
+        let v = self.output().values(f)?;
+        let n = v.len().max(1) as f32;
+        match self {
+            ImageLoss::Mean(_) => Ok(vec![1.0 / n; v.len()]),
+            ImageLoss::L2To { target, .. } => {
                 self.eval(f)?; // checks the size
-                Ok(f.radiance.iter().zip(target).map(|(&a, &b)| 2.0 * (a - b) / n).collect())
+                Ok(v.iter().zip(target).map(|(&a, &b)| 2.0 * (a - b) / n).collect())
             }
-            _ => Err(Error::Invalid(
-                "analytic gradients of depth and mask losses need boundary terms (not implemented yet); use --fd"
-                    .into(),
-            )),
         }
     }
 

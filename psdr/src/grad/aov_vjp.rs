@@ -1,0 +1,167 @@
+//! Reverse mode for the depth and coverage-mask AOVs with respect to object poses:
+//!     d/dθ ∫_pixel f(y) dy = ∫_pixel ∂f/∂θ dy  +  ∫_{silhouettes ∩ pixel} (f⁻ − f⁺) (V·n) dℓ
+//! The interior term exists for depth only (a mask is piecewise constant): along a fixed camera ray the hit
+//! distance to a plane moving with velocity u changes by (n·u)/(n·d). The boundary term samples silhouette
+//! edges by projected length (`PrimaryEdges`), evaluates f on both sides of the edge with two camera rays
+//! ε pixels apart, and V = ∂y/∂θ is the image velocity of the edge point. f⁻ is the side the normal n points
+//! away from: when the edge moves along +n, the f⁻ region grows.
+
+use super::pose_velocity::PoseLayout;
+use super::primary_edges::{project_velocity, PrimaryEdges};
+use super::Output;
+use crate::error::{Error, Result};
+use crate::render::bvh::trace_closest;
+use crate::render::camera::camera_ray;
+use crate::render::layout::NONE;
+use crate::render::sampler::{Sampler, DIM_PIXEL_X, DIM_PIXEL_Y};
+use crate::render::SceneData;
+use crate::scene::{RenderSettings, Scene};
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Offset of the two side rays from the edge, in pixels: far below a pixel, far above f32 rounding of
+/// pixel coordinates (~1e-5 at 512 px).
+const SIDE_EPS: f32 = 1e-3;
+/// Seed tweak separating edge samples from pixel samples.
+const EDGE_SEED: u32 = 0x6a09_e667;
+/// Edge samples per parallel chunk (results are reduced in chunk order, so thread count does not matter).
+const CHUNK: u32 = 1024;
+
+/// The value an AOV takes along the camera ray through image point (x, y), and what it hit.
+fn aov_along(d: &SceneData, output: &Output, x: f32, y: f32) -> f32 {
+    let dir = camera_ray(&d.camera, x, y);
+    match trace_closest(&d.nodes, &d.triangles, Vec3::from(d.camera.origin), dir, f32::INFINITY) {
+        None => 0.0,
+        Some(h) => match output {
+            Output::Depth => h.t * dir.dot(Vec3::from(d.camera.forward)),
+            Output::Mask(o) => (d.triangles[h.triangle as usize].object == *o as u32) as u32 as f32,
+            Output::Radiance => unreachable!("radiance goes through radiance_vjp"),
+        },
+    }
+}
+
+/// dLoss/dθ for the pose entries of `pose`, given dLoss/d(AOV) per pixel (`adjoint`, w·h values).
+pub fn aov_vjp(
+    scene: &Scene,
+    d: &SceneData,
+    settings: &RenderSettings,
+    pose: &PoseLayout,
+    output: &Output,
+    adjoint: &[f32],
+    edge_samples: u32,
+) -> Result<Vec<f64>> {
+    let (w, h) = (d.camera.width as usize, d.camera.height as usize);
+    if matches!(output, Output::Radiance) {
+        return Err(Error::Invalid("aov_vjp differentiates depth and masks; radiance has its own adjoint".into()));
+    }
+    if adjoint.len() != w * h {
+        return Err(Error::Invalid(format!("adjoint image has {} values, expected {}", adjoint.len(), w * h)));
+    }
+    if let Some(i) = adjoint.iter().position(|v| !v.is_finite()) {
+        return Err(Error::Invalid(format!("adjoint image value {i} is not finite")));
+    }
+    let mut grad = vec![0.0f64; pose.len];
+    if matches!(output, Output::Depth) {
+        for row in depth_interior(d, settings, pose, adjoint) {
+            grad.iter_mut().zip(row).for_each(|(g, r)| *g += r);
+        }
+    }
+    for chunk in boundary(scene, d, settings, pose, output, adjoint, edge_samples) {
+        grad.iter_mut().zip(chunk).for_each(|(g, r)| *g += r);
+    }
+    Ok(grad)
+}
+
+/// Interior term of depth: one gradient row per image row.
+fn depth_interior(d: &SceneData, settings: &RenderSettings, pose: &PoseLayout, adjoint: &[f32]) -> Vec<Vec<f64>> {
+    let (w, h) = (d.camera.width, d.camera.height);
+    let fwd = Vec3::from(d.camera.forward);
+    let origin = Vec3::from(d.camera.origin);
+    (0..h)
+        .into_par_iter()
+        .map(|py| {
+            let mut g = vec![0.0f64; pose.len];
+            for px in 0..w {
+                let delta = adjoint[(py * w + px) as usize] / settings.spp as f32;
+                if delta == 0.0 {
+                    continue;
+                }
+                for sample in 0..settings.spp {
+                    let s = Sampler { seed: settings.seed, pixel: py * w + px, sample };
+                    let dir = camera_ray(&d.camera, px as f32 + s.get(DIM_PIXEL_X), py as f32 + s.get(DIM_PIXEL_Y));
+                    let Some(hit) = trace_closest(&d.nodes, &d.triangles, origin, dir, f32::INFINITY) else {
+                        continue;
+                    };
+                    let tri = &d.triangles[hit.triangle as usize];
+                    if tri.object == NONE || !pose.moves(tri.object) {
+                        continue;
+                    }
+                    let n = Vec3::from(tri.e1).cross(Vec3::from(tri.e2));
+                    let p = origin + dir * hit.t;
+                    let nd = n.dot(dir);
+                    if nd == 0.0 {
+                        continue;
+                    }
+                    for &(o, c, at) in &pose.entries {
+                        if o == tri.object {
+                            let dt = n.dot(pose.velocity(o, c, p)) / nd;
+                            g[at] += (delta * dt * dir.dot(fwd)) as f64;
+                        }
+                    }
+                }
+            }
+            g
+        })
+        .collect()
+}
+
+/// Boundary term: one gradient vector per chunk of edge samples.
+fn boundary(
+    scene: &Scene,
+    d: &SceneData,
+    settings: &RenderSettings,
+    pose: &PoseLayout,
+    output: &Output,
+    adjoint: &[f32],
+    edge_samples: u32,
+) -> Vec<Vec<f64>> {
+    let edges = PrimaryEdges::build(scene, &d.camera, |o| pose.moves(o));
+    if edges.edges.is_empty() || edge_samples == 0 {
+        return vec![];
+    }
+    let (w, h) = (d.camera.width as f32, d.camera.height as f32);
+    let chunks = edge_samples.div_ceil(CHUNK);
+    (0..chunks)
+        .into_par_iter()
+        .map(|c| {
+            let mut g = vec![0.0f64; pose.len];
+            for k in c * CHUNK..((c + 1) * CHUNK).min(edge_samples) {
+                let s = Sampler { seed: settings.seed ^ EDGE_SEED, pixel: k, sample: 0 };
+                let Some(es) = edges.sample(&d.camera, s.get(0), s.get(1)) else { continue };
+                let [x, y] = es.y;
+                if !(x >= 0.0 && y >= 0.0 && x < w && y < h) {
+                    continue;
+                }
+                let delta = adjoint[(y as u32 * d.camera.width + x as u32) as usize];
+                if delta == 0.0 {
+                    continue;
+                }
+                let [nx, ny] = es.n;
+                let f_minus = aov_along(d, output, x - nx * SIDE_EPS, y - ny * SIDE_EPS);
+                let f_plus = aov_along(d, output, x + nx * SIDE_EPS, y + ny * SIDE_EPS);
+                if f_minus == f_plus {
+                    continue;
+                }
+                let object = edges.edges[es.edge].object;
+                let weight = delta * (f_minus - f_plus) / (es.pdf * edge_samples as f32);
+                for &(o, comp, at) in &pose.entries {
+                    if o == object {
+                        let v = project_velocity(&d.camera, es.x, pose.velocity(o, comp, es.x));
+                        g[at] += (weight * (v[0] * nx + v[1] * ny)) as f64;
+                    }
+                }
+            }
+            g
+        })
+        .collect()
+}

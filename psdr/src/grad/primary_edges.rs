@@ -1,0 +1,240 @@
+//! Primary boundary: the silhouette edges of moving objects as seen from the camera, projected to the image and
+//! sampled by projected length (the edge distribution, built once per scene and camera).
+//!
+//! A mesh edge can carry a visibility discontinuity for the camera when it bounds the mesh (one adjacent
+//! triangle), when its two triangles face opposite ways from the camera, or when more than two triangles meet
+//! there. Vertices are welded by exact position so meshes with per-face vertices (flat-shaded OBJs) still have
+//! adjacency. Edges hidden behind other geometry are kept: the two-sided evaluation sees no jump there.
+
+use crate::render::layout::CameraGpu;
+use crate::scene::Scene;
+use glam::Vec3;
+use std::collections::HashMap;
+
+/// A silhouette edge clipped to the front of the camera.
+#[derive(Clone, Copy, Debug)]
+pub struct ImageEdge {
+    /// World-space endpoints.
+    pub a: Vec3,
+    pub b: Vec3,
+    /// Image-space endpoints in pixels (x right, y down).
+    pub pa: [f32; 2],
+    pub pb: [f32; 2],
+    pub object: u32,
+}
+
+/// The edge distribution: silhouette edges of the given objects and the CDF of their projected lengths.
+pub struct PrimaryEdges {
+    pub edges: Vec<ImageEdge>,
+    cdf: Vec<f32>,
+    /// Total projected length in pixels.
+    pub total_length: f32,
+}
+
+/// A point sampled on the silhouette set.
+pub struct EdgeSample {
+    pub edge: usize,
+    /// Image position (pixels) and the unit image-space normal of the edge there.
+    pub y: [f32; 2],
+    pub n: [f32; 2],
+    /// World-space point on the edge that projects to `y`.
+    pub x: Vec3,
+    /// Density of `y` per unit projected length (1 / total length).
+    pub pdf: f32,
+}
+
+/// (object, lower welded vertex id, higher welded vertex id).
+type EdgeKey = (u32, u32, u32);
+/// The edge's endpoints and whether each adjacent triangle faces the camera.
+type EdgeFaces = (Vec3, Vec3, Vec<bool>);
+
+/// Camera-space distance in front of the camera below which edges are clipped.
+const NEAR: f32 = 1e-4;
+
+/// Projects a world point to image pixels; None behind the near plane.
+pub fn project(c: &CameraGpu, x: Vec3) -> Option<[f32; 2]> {
+    let r = x - Vec3::from(c.origin);
+    let z = r.dot(Vec3::from(c.forward));
+    if z <= NEAR * 0.5 {
+        return None;
+    }
+    let ndc_x = r.dot(Vec3::from(c.right)) / (z * c.tan_half_fov * c.aspect);
+    let ndc_y = r.dot(Vec3::from(c.up)) / (z * c.tan_half_fov);
+    Some([(ndc_x + 1.0) * 0.5 * c.width as f32, (1.0 - ndc_y) * 0.5 * c.height as f32])
+}
+
+/// ∂(pixel x, pixel y)/∂x of `project` at world point x, applied to a velocity u.
+pub fn project_velocity(c: &CameraGpu, x: Vec3, u: Vec3) -> [f32; 2] {
+    let (fwd, right, up) = (Vec3::from(c.forward), Vec3::from(c.right), Vec3::from(c.up));
+    let r = x - Vec3::from(c.origin);
+    let z = r.dot(fwd);
+    let dz = u.dot(fwd);
+    let sx = 0.5 * c.width as f32 / (c.tan_half_fov * c.aspect);
+    let sy = -0.5 * c.height as f32 / c.tan_half_fov;
+    [sx * (u.dot(right) * z - r.dot(right) * dz) / (z * z), sy * (u.dot(up) * z - r.dot(up) * dz) / (z * z)]
+}
+
+impl PrimaryEdges {
+    /// Silhouette edges of the objects for which `wanted(object)` is true, from the scene's own meshes (their
+    /// shared vertex positions weld exactly; positions rebuilt from the renderer's edge vectors would not).
+    pub fn build(scene: &Scene, cam: &CameraGpu, wanted: impl Fn(u32) -> bool) -> PrimaryEdges {
+        let eye = Vec3::from(cam.origin);
+        let mut ids: HashMap<(u32, [u32; 3]), u32> = HashMap::new();
+        let mut adj: HashMap<EdgeKey, EdgeFaces> = HashMap::new();
+        for (oi, obj) in scene.objects.iter().enumerate().filter(|(i, _)| wanted(*i as u32)) {
+            let o = oi as u32;
+            let m = obj.pose.matrix();
+            let mirror = obj.pose.is_mirroring();
+            for part in &obj.parts {
+                let world: Vec<Vec3> = part.positions.iter().map(|&p| m.transform_point3(p)).collect();
+                let vid: Vec<u32> = world
+                    .iter()
+                    .map(|p| {
+                        let n = ids.len() as u32;
+                        *ids.entry((o, p.to_array().map(f32::to_bits))).or_insert(n)
+                    })
+                    .collect();
+                for tri in &part.indices {
+                    let vs = tri.map(|i| world[i as usize]);
+                    let mut n = (vs[1] - vs[0]).cross(vs[2] - vs[0]);
+                    if n.length_squared() == 0.0 {
+                        continue; // degenerate: no area, no silhouette
+                    }
+                    if mirror {
+                        n = -n;
+                    }
+                    let front = n.dot(eye - vs[0]) > 0.0;
+                    for k in 0..3 {
+                        let (i, j) = (vid[tri[k] as usize], vid[tri[(k + 1) % 3] as usize]);
+                        if i == j {
+                            continue;
+                        }
+                        let key = (o, i.min(j), i.max(j));
+                        adj.entry(key).or_insert_with(|| (vs[k], vs[(k + 1) % 3], vec![])).2.push(front);
+                    }
+                }
+            }
+        }
+        let mut edges = vec![];
+        let mut keys: Vec<_> = adj.keys().copied().collect();
+        keys.sort_unstable(); // deterministic order, independent of hashing
+        for key in keys {
+            let (a, b, facing) = &adj[&key];
+            let silhouette = facing.len() != 2 || facing[0] != facing[1];
+            if !silhouette {
+                continue;
+            }
+            if let Some(e) = clip_and_project(cam, *a, *b, key.0) {
+                edges.push(e);
+            }
+        }
+        let mut cdf = Vec::with_capacity(edges.len());
+        let mut total = 0.0f32;
+        for e in &edges {
+            total += length(e);
+            cdf.push(total);
+        }
+        PrimaryEdges { edges, cdf, total_length: total }
+    }
+
+    /// A point uniformly distributed over the total projected length, from two uniform numbers.
+    pub fn sample(&self, cam: &CameraGpu, u_edge: f32, u_along: f32) -> Option<EdgeSample> {
+        if self.total_length <= 0.0 {
+            return None;
+        }
+        let target = u_edge * self.total_length;
+        let k = self.cdf.partition_point(|&c| c <= target).min(self.edges.len() - 1);
+        let e = &self.edges[k];
+        let (dx, dy) = (e.pb[0] - e.pa[0], e.pb[1] - e.pa[1]);
+        let len = (dx * dx + dy * dy).sqrt();
+        if len <= 0.0 {
+            return None;
+        }
+        let y = [e.pa[0] + dx * u_along, e.pa[1] + dy * u_along];
+        let x = point_on_edge(cam, e, y)?;
+        Some(EdgeSample { edge: k, y, n: [-dy / len, dx / len], x, pdf: 1.0 / self.total_length })
+    }
+}
+
+fn length(e: &ImageEdge) -> f32 {
+    ((e.pb[0] - e.pa[0]).powi(2) + (e.pb[1] - e.pa[1]).powi(2)).sqrt()
+}
+
+/// Clips the segment to the front of the camera and projects it.
+fn clip_and_project(cam: &CameraGpu, mut a: Vec3, mut b: Vec3, object: u32) -> Option<ImageEdge> {
+    let (eye, fwd) = (Vec3::from(cam.origin), Vec3::from(cam.forward));
+    let (za, zb) = ((a - eye).dot(fwd), (b - eye).dot(fwd));
+    if za < NEAR && zb < NEAR {
+        return None;
+    }
+    if za < NEAR {
+        a = a + (b - a) * ((NEAR - za) / (zb - za));
+    } else if zb < NEAR {
+        b = b + (a - b) * ((NEAR - zb) / (za - zb));
+    }
+    Some(ImageEdge { a, b, pa: project(cam, a)?, pb: project(cam, b)?, object })
+}
+
+/// The point of the edge's 3D segment whose projection is `y` (closest point between the camera ray through y
+/// and the edge's line).
+fn point_on_edge(cam: &CameraGpu, e: &ImageEdge, y: [f32; 2]) -> Option<Vec3> {
+    let o = Vec3::from(cam.origin);
+    let d = crate::render::camera::camera_ray(cam, y[0], y[1]);
+    let ab = e.b - e.a;
+    let w = e.a - o;
+    let (a11, a12, a22) = (ab.dot(ab), ab.dot(d), d.dot(d));
+    let (b1, b2) = (-w.dot(ab), w.dot(d));
+    let det = a11 * a22 - a12 * a12;
+    if det.abs() <= 1e-12 * a11 * a22 {
+        return None; // the edge points at the camera: zero projected length
+    }
+    let t = ((b1 * a22 + a12 * b2) / det).clamp(0.0, 1.0);
+    Some(e.a + ab * t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::camera::camera_ray;
+    use crate::scene::Camera;
+
+    fn camera() -> CameraGpu {
+        let c = Camera::look_at(Vec3::new(0.3, 1.45, 2.3), Vec3::new(-0.1, 0.8, -1.5), Vec3::Y, 60.0, 256, 192);
+        CameraGpu {
+            origin: c.origin.to_array(),
+            tan_half_fov: c.tan_half_fov(),
+            forward: c.forward.to_array(),
+            aspect: c.aspect(),
+            right: c.right().to_array(),
+            width: c.width,
+            up: c.up.to_array(),
+            height: c.height,
+        }
+    }
+
+    /// `project` inverts `camera_ray` (to f32 rounding of pixel coordinates).
+    #[test]
+    fn project_inverts_camera_ray() {
+        let c = camera();
+        for (x, y) in [(0.5, 0.5), (100.25, 37.5), (255.0, 191.0), (128.0, 96.0)] {
+            let p = project(&c, Vec3::from(c.origin) + camera_ray(&c, x, y) * 3.7).unwrap();
+            assert!((p[0] - x).abs() < 1e-3 && (p[1] - y).abs() < 1e-3, "({x},{y}) -> {p:?}");
+        }
+    }
+
+    /// `project_velocity` is the derivative of `project` (central differences, step 1e-3 m).
+    #[test]
+    fn project_velocity_matches_finite_differences() {
+        let c = camera();
+        let x = Vec3::new(-0.4, 0.6, -1.1);
+        for u in [Vec3::X, Vec3::Y, Vec3::Z, Vec3::new(0.3, -0.2, 0.9)] {
+            let h = 1e-3;
+            let (a, b) = (project(&c, x + u * h).unwrap(), project(&c, x - u * h).unwrap());
+            let fd = [(a[0] - b[0]) / (2.0 * h), (a[1] - b[1]) / (2.0 * h)];
+            let v = project_velocity(&c, x, u);
+            for k in 0..2 {
+                assert!((fd[k] - v[k]).abs() < 1e-2 * (1.0 + fd[k].abs()), "u {u}: FD {fd:?} vs {v:?}");
+            }
+        }
+    }
+}
