@@ -77,9 +77,8 @@ pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32
             if cos_l > 0.0 && dist > 0.0 {
                 let f = bsdf_eval(&sp.bsdf, wi, sp.to_local(wl));
                 if f != Vec3::ZERO {
-                    let o = offset_origin(sp.p, sp.ng, wl);
                     out.rays += 1;
-                    if !trace_occluded(&d.nodes, &d.triangles, o, wl, dist * (1.0 - 1e-4)) {
+                    if unoccluded(d, sp.p, sp.ng, ls.p, ls.n) {
                         let light_pdf = ls.pdf_area * dist2 / cos_l;
                         let w = mis_power(light_pdf, bsdf_pdf(&sp.bsdf, wi, sp.to_local(wl)));
                         out.radiance += beta * f * ls.radiance * (w / light_pdf);
@@ -105,6 +104,19 @@ pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32
         }
     }
     out
+}
+
+/// True when nothing blocks the segment from surface point `p` (geometric normal `ng`) to light point `q` (light
+/// triangle normal `nq`). Both ends are offset off their own surfaces toward each other and the ray ends at the
+/// offset light point: a ray from the offset origin aimed at the light point itself would cross the light's plane
+/// up to offset * |ng.nq| / cos_l before the light point, which a relative margin cannot absorb at grazing cos_l
+/// (that falsely shadowed about 0.1 % of the second-bounce light in a white furnace).
+#[inline(always)]
+pub fn unoccluded(d: &SceneData, p: Vec3, ng: Vec3, q: Vec3, nq: Vec3) -> bool {
+    let o = offset_origin(p, ng, q - p);
+    let v = offset_origin(q, nq, p - q) - o;
+    let dist = v.length();
+    dist > 0.0 && !trace_occluded(&d.nodes, &d.triangles, o, v / dist, dist)
 }
 
 /// Per-pixel sums over the samples of one pass (one row of each output buffer).
