@@ -55,7 +55,7 @@ pub fn ggx_d(h: Vec3, alpha: f32) -> f32 {
     }
     let a2 = alpha * alpha;
     let c2 = h.z * h.z;
-    let d = c2 * (a2 - 1.0) + 1.0;
+    let d = (h.x * h.x + h.y * h.y) + c2 * a2;
     a2 / (PI * d * d)
 }
 
