@@ -1,1 +1,152 @@
-//! Shared helpers for the cross-crate tests.
+//! Shared helpers for the cross-crate tests: scenes built in code, a pinhole camera written independently of
+//! the renderer's, per-pixel sample statistics from the path-tracing kernel, temporary folders and chi-square
+//! bounds.
+
+use glam::{Vec2, Vec3};
+use psdr::render::cpu::frame_params;
+use psdr::render::path_trace::trace_path;
+use psdr::render::{render_cpu, Frame, SceneData};
+use psdr::scene::{Camera, Emitter, Material, MeshPart, Object, Pose, RenderSettings, Scene};
+use std::path::PathBuf;
+
+/// An empty scene seen by a look-at camera.
+pub fn empty_scene(camera: Camera, settings: RenderSettings) -> Scene {
+    Scene { camera, settings, materials: Vec::new(), textures: Vec::new(), objects: Vec::new(), source: None }
+}
+
+/// Adds a material and returns its index.
+pub fn add_material(scene: &mut Scene, m: Material) -> usize {
+    scene.materials.push(m);
+    scene.materials.len() - 1
+}
+
+/// A diffuse (Lambertian only: specular 0) material with RGB albedo.
+pub fn lambert(name: &str, albedo: Vec3) -> Material {
+    Material::diffuse(name, albedo)
+}
+
+/// Adds an object made of one part with material `material`; returns its index.
+pub fn add_object(
+    scene: &mut Scene,
+    name: &str,
+    mut part: MeshPart,
+    material: usize,
+    pose: Pose,
+    emitter: Option<Emitter>,
+) -> usize {
+    part.material = material;
+    scene.objects.push(Object { name: name.to_string(), parts: vec![part], pose, emitter });
+    scene.objects.len() - 1
+}
+
+/// The part with its shading normals removed (flat shading: shading normal = geometric normal).
+pub fn flat(mut part: MeshPart) -> MeshPart {
+    part.normals = None;
+    part
+}
+
+/// One-sided emitter of radiance `le`.
+pub fn emitter(le: Vec3) -> Option<Emitter> {
+    Some(Emitter { radiance: le, two_sided: false })
+}
+
+/// Renders on the CPU backend.
+pub fn render(scene: &Scene) -> Frame {
+    let d = SceneData::build(scene).expect("scene builds");
+    render_cpu(&d, &scene.settings, &|_, _| {})
+}
+
+/// Mean and unbiased per-sample variance of the radiance of `n` samples of pixel (px, py), drawn by the
+/// path-tracing kernel with the scene's seed (sample indices 0..n).
+pub fn pixel_samples(d: &SceneData, s: &RenderSettings, px: u32, py: u32, n: u32) -> (Vec3, Vec3) {
+    let fp = frame_params(d, s);
+    let (mut sum, mut sum2) = ([0.0f64; 3], [0.0f64; 3]);
+    for k in 0..n {
+        let r = trace_path(d, &fp, px, py, k).radiance;
+        for c in 0..3 {
+            sum[c] += r[c] as f64;
+            sum2[c] += (r[c] as f64).powi(2);
+        }
+    }
+    let nf = n as f64;
+    let mean = sum.map(|x| x / nf);
+    let var: Vec<f64> = (0..3).map(|c| ((sum2[c] - nf * mean[c] * mean[c]) / (nf - 1.0)).max(0.0)).collect();
+    (Vec3::new(mean[0] as f32, mean[1] as f32, mean[2] as f32), Vec3::new(var[0] as f32, var[1] as f32, var[2] as f32))
+}
+
+/// Camera-space direction (x right, y up, z forward; not normalized, z = 1) through continuous image position
+/// (x, y) in pixels, (0, 0) the top-left corner: the pinhole model written from its definition (vertical fov,
+/// square pixels), independently of psdr::render::camera.
+pub fn pinhole_dir_camera_space(cam: &Camera, x: f64, y: f64) -> [f64; 3] {
+    let tan = ((cam.fov_y_deg as f64).to_radians() * 0.5).tan();
+    let (w, h) = (cam.width as f64, cam.height as f64);
+    let px = (2.0 * x / w - 1.0) * tan * (w / h);
+    let py = (1.0 - 2.0 * y / h) * tan;
+    [px, py, 1.0]
+}
+
+/// Image position (pixels) where camera-space direction (x, y, z) (z > 0) projects: the inverse of
+/// `pinhole_dir_camera_space`.
+pub fn project_camera_space(cam: &Camera, p: [f64; 3]) -> Vec2 {
+    let tan = ((cam.fov_y_deg as f64).to_radians() * 0.5).tan();
+    let (w, h) = (cam.width as f64, cam.height as f64);
+    let ndc_x = p[0] / p[2] / (tan * w / h);
+    let ndc_y = p[1] / p[2] / tan;
+    Vec2::new(((ndc_x + 1.0) * 0.5 * w) as f32, ((1.0 - ndc_y) * 0.5 * h) as f32)
+}
+
+/// A fresh, empty folder under the system temp dir, unique to this process and `name`.
+pub fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("psdr-tests-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("create temp dir");
+    dir
+}
+
+/// Upper quantile of the chi-square distribution with `dof` degrees of freedom at the standard-normal quantile
+/// `z` (Wilson-Hilferty: accurate to about 1 % of the quantile for dof >= 10). z = 4.75 is a p-value of 1e-6.
+pub fn chi2_upper_quantile(dof: f64, z: f64) -> f64 {
+    let a = 2.0 / (9.0 * dof);
+    dof * (1.0 - a + z * a.sqrt()).powi(3)
+}
+
+/// Pearson chi-square statistic of observed counts against expected counts, pooling bins whose expected count
+/// is below `min_expected` into one bin (the usual validity condition). Returns (statistic, degrees of freedom).
+pub fn chi2_pooled(observed: &[f64], expected: &[f64], min_expected: f64) -> (f64, usize) {
+    let (mut stat, mut bins) = (0.0, 0usize);
+    let (mut po, mut pe) = (0.0, 0.0);
+    for (&o, &e) in observed.iter().zip(expected) {
+        if e < min_expected {
+            po += o;
+            pe += e;
+        } else {
+            stat += (o - e) * (o - e) / e;
+            bins += 1;
+        }
+    }
+    if pe > 0.0 {
+        stat += (po - pe) * (po - pe) / pe;
+        bins += 1;
+    } else if po > 0.0 {
+        // Samples where the density says none can land.
+        return (f64::INFINITY, bins.max(2) - 1);
+    }
+    (stat, bins.max(2) - 1)
+}
+
+/// SplitMix64: a small independent generator for tests that must not depend on the renderer's sampler.
+pub struct SplitMix64(pub u64);
+
+impl SplitMix64 {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1) with 24 bits, like the renderer's sampler (so every value is an exact f32).
+    pub fn next_f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 * (1.0 / 16_777_216.0)
+    }
+}
