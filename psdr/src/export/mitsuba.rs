@@ -3,9 +3,10 @@
 //!
 //! Mapping (exact unless noted):
 //! - specular = 0, no normal map: `diffuse` (exact).
-//! - otherwise `roughplastic` (GGX, alpha = roughness^2, int_ior from specular, linear diffuse term) with the
-//!   diffuse reflectance scaled so that its normal-incidence diffuse response equals ours; Mitsuba's rough
-//!   transmittance table differs from our (1 - F(cos)) factors at grazing angles (approximate).
+//! - otherwise `roughplastic` (GGX, alpha = roughness^2, int_ior from specular, linear diffuse term): the
+//!   specular lobe is the same; the diffuse reflectance is scaled so that the diffuse energy under uniform
+//!   illumination equals ours (`roughplastic_albedo_scale`); Mitsuba's rough transmittance t(cos) differs from
+//!   our (1 - F(cos)) factors in angular shape, mostly at grazing angles (approximate).
 //!   Textured roughness/specular use their mean (Mitsuba's roughplastic takes constants): approximate.
 //! - normal maps: `normalmap` BSDF (tangent frames may differ): approximate.
 //! - every BSDF is wrapped in `twosided` (ours shade both faces); two-sided emitters export one-sided (warned).
@@ -14,7 +15,7 @@
 use super::ply::write_ply;
 use crate::error::{Error, Result};
 use crate::output::write_exr_channels;
-use crate::render::bsdf::{fresnel_dielectric, specular_to_eta};
+use crate::render::bsdf::{fresnel_dielectric, ggx_alpha, ggx_g1, sample_ggx_vndf, specular_to_eta};
 use crate::scene::{Color, Material, Scalar, Scene, Texture};
 use glam::{Vec2, Vec3};
 use std::fmt::Write as _;
@@ -29,6 +30,65 @@ pub fn fresnel_hemispherical_average(eta: f32) -> f32 {
         s += fresnel_dielectric(mu as f32, eta) as f64 * mu;
     }
     (2.0 * s / n as f64) as f32
+}
+
+/// Directional reflectance (`transmit = false`) or transmittance (`transmit = true`) of a rough GGX dielectric
+/// interface for light arriving at `cos_i` on the side where the relative IOR is `eta` (< 1 from inside, with
+/// total internal reflection). VNDF-sampled on a stratified grid: reflection weighs F(wi.m) G1(wo), transmission
+/// (1 - F(wi.m)) G1(wt) with wt the refracted direction (energy masked on the way in is lost).
+/// Mitsuba 3's roughplastic tabulates exactly these: its diffuse term uses the transmittance from outside and
+/// the cosine mean of the reflectance from inside (verified against Mitsuba 3.9.1's `eval`).
+pub fn rough_interface(cos_i: f32, alpha: f32, eta: f32, transmit: bool) -> f32 {
+    let n = 32;
+    let wi = Vec3::new((1.0 - cos_i * cos_i).max(0.0).sqrt(), 0.0, cos_i);
+    let mut s = 0.0f64;
+    for i in 0..n {
+        for j in 0..n {
+            let (u1, u2) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+            let m = sample_ggx_vndf(wi, alpha, u1, u2);
+            let c = wi.dot(m);
+            let f = fresnel_dielectric(c, eta);
+            let w = if transmit {
+                let sin2_t = (1.0 - c * c) / (eta * eta);
+                let wt = (-wi / eta + (c / eta - (1.0 - sin2_t).max(0.0).sqrt()) * m).normalize();
+                if sin2_t < 1.0 && wt.z < 0.0 {
+                    (1.0 - f) * ggx_g1(-wt, alpha)
+                } else {
+                    0.0
+                }
+            } else {
+                let wo = 2.0 * c * m - wi;
+                if wo.z > 0.0 {
+                    f * ggx_g1(wo, alpha)
+                } else {
+                    0.0
+                }
+            };
+            s += w as f64;
+        }
+    }
+    (s / (n * n) as f64) as f32
+}
+
+/// Scale of our albedo for Mitsuba's roughplastic (`nonlinear = false`). Its diffuse term is
+/// rho' / (1 - R_int) / eta^2 * t(cos_i) t(cos_o) / pi (t: rough transmittance, R_int: internal reflectance);
+/// ours is rho (1 - F(cos_i)) (1 - F(cos_o)) / pi. The scale equates the diffuse energy under uniform
+/// illumination, rho' T^2 / (eta^2 (1 - R_int)) = rho (1 - F_avg)^2 with T the cosine mean of t.
+pub fn roughplastic_albedo_scale(alpha: f32, eta: f32) -> f32 {
+    let ours = (1.0 - fresnel_hemispherical_average(eta)).powi(2);
+    let n = 64;
+    let t_avg =
+        (0..n).map(|i| (i as f32 + 0.5) / n as f32).map(|mu| rough_interface(mu, alpha, eta, true) * mu).sum::<f32>()
+            * 2.0
+            / n as f32;
+    // Mitsuba's own quadrature: 2 * mean of R(mu) mu over mu = i / 63, i = 0..63.
+    let r_int = (0..n)
+        .map(|i| (i as f32 / (n - 1) as f32).max(1e-6))
+        .map(|mu| rough_interface(mu, alpha, 1.0 / eta, false) * mu)
+        .sum::<f32>()
+        * 2.0
+        / n as f32;
+    ours * eta * eta * (1.0 - r_int) / (t_avg * t_avg)
 }
 
 fn texture_mean(t: &Texture) -> f32 {
@@ -176,14 +236,12 @@ fn material_xml(scene: &Scene, mi: usize, m: &Material, dir: &Path, warnings: &m
     } else {
         let roughness = scalar_value(scene, m.roughness, warnings, &format!("{what} roughness"));
         let eta = specular_to_eta(specular);
-        // Mitsuba's linear diffuse term is rho / (1 - F_int) / eta^2 * t_i t_o / pi; with
-        // eta^2 (1 - F_int) = 1 - F_avg (energy balance at the interface) ours is matched by this scale.
-        let k = 1.0 - fresnel_hemispherical_average(eta);
+        let k = roughplastic_albedo_scale(ggx_alpha(roughness), eta);
         warnings
             .push(format!("{what}: specular layer exported as roughplastic (close, not identical at grazing angles)"));
         format!(
             "    <bsdf type=\"roughplastic\">\n      <string name=\"distribution\" value=\"ggx\"/>\n      <float name=\"alpha\" value=\"{:.6}\"/>\n      <float name=\"int_ior\" value=\"{eta:.6}\"/>\n      <float name=\"ext_ior\" value=\"1.0\"/>\n      <boolean name=\"nonlinear\" value=\"false\"/>\n{}    </bsdf>\n",
-            crate::render::bsdf::ggx_alpha(roughness),
+            ggx_alpha(roughness),
             color_xml(scene, "diffuse_reflectance", m.albedo, k, dir, "albedo")?
         )
     };
@@ -194,4 +252,25 @@ fn material_xml(scene: &Scene, mi: usize, m: &Material, dir: &Path, warnings: &m
         inner = format!("    <bsdf type=\"normalmap\">\n      <texture type=\"bitmap\" name=\"normalmap\">\n        <string name=\"filename\" value=\"{file}\"/>\n        <boolean name=\"raw\" value=\"true\"/>\n      </texture>\n{}    </bsdf>\n", inner.replace("\n    ", "\n      ").replacen("    <bsdf", "      <bsdf", 1));
     }
     Ok(format!("  <bsdf type=\"twosided\" id=\"mat{mi}\">\n{inner}  </bsdf>\n"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn smooth_interface_limits_and_energy() {
+        // Near-smooth: reflectance is Fresnel and transmittance its complement; rough: nothing is created.
+        for c in [1.0f32, 0.7, 0.3] {
+            let f = fresnel_dielectric(c, 1.5);
+            assert!((rough_interface(c, 1e-3, 1.5, false) - f).abs() < 2e-3, "R at {c}");
+            assert!((rough_interface(c, 1e-3, 1.5, true) - (1.0 - f)).abs() < 2e-3, "T at {c}");
+            let (r, t) = (rough_interface(c, 0.5, 1.5, false), rough_interface(c, 0.5, 1.5, true));
+            assert!(r + t <= 1.0 + 1e-3 && r > 0.0 && t > 0.0);
+        }
+        // The diffuse scale is near (but not at) 1 - F_avg for near-smooth surfaces and grows with roughness.
+        let (k0, k1) = (roughplastic_albedo_scale(1e-3, 1.5), roughplastic_albedo_scale(0.5, 1.5));
+        assert!((k0 - (1.0 - fresnel_hemispherical_average(1.5))).abs() < 0.05, "{k0}");
+        assert!(k1 > k0);
+    }
 }
