@@ -150,3 +150,24 @@ impl SplitMix64 {
         (self.next_u64() >> 40) as f32 * (1.0 / 16_777_216.0)
     }
 }
+
+/// A scene file (format psdr-scene v1) with a small camera looking at the origin from +z, and the given
+/// `materials` and `shapes` JSON arrays (without brackets).
+pub fn scene_json(materials: &str, shapes: &str) -> String {
+    format!(
+        r#"{{
+  "format": "psdr-scene", "version": 1,
+  "camera": {{ "origin": [0, 0, 4], "target": [0, 0, 0], "fov_y": 45, "width": 16, "height": 12 }},
+  "render": {{ "spp": 2, "max_depth": 3, "seed": 1 }},
+  "materials": [{materials}],
+  "shapes": [{shapes}]
+}}"#
+    )
+}
+
+/// Writes `text` to `dir/name` and returns the path.
+pub fn write_file(dir: &std::path::Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).expect("write test file");
+    p
+}
