@@ -2,7 +2,7 @@
 //! Fields are deliberately loose here (optional, untyped numbers); `load` validates them with messages that
 //! name the field, which serde alone cannot do well.
 
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
 use std::collections::BTreeMap;
 
 pub const FORMAT: &str = "psdr-scene";
@@ -75,6 +75,7 @@ pub struct MaterialFile {
 #[serde(deny_unknown_fields)]
 pub struct UvTransformFile {
     /// One number or `[su, sv]`.
+    #[serde(default, deserialize_with = "one_or_many")]
     pub scale: Option<Vec<f32>>,
     pub rotation_deg: Option<f32>,
     pub offset: Option<[f32; 2]>,
@@ -115,6 +116,7 @@ pub struct TransformFile {
     /// Unit quaternion [x, y, z, w]; alternative to rotation_deg.
     pub quaternion: Option<[f32; 4]>,
     /// One number or `[sx, sy, sz]`.
+    #[serde(default, deserialize_with = "one_or_many")]
     pub scale: Option<Vec<f32>>,
 }
 
@@ -124,4 +126,18 @@ pub struct EmitterFile {
     pub radiance: ValueFile,
     #[serde(default)]
     pub two_sided: bool,
+}
+
+/// Reads `2` as `[2]` and `[2, 3]` as itself, so "one number or a list" fields accept both spellings.
+fn one_or_many<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Vec<f32>>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum OneOrMany {
+        One(f32),
+        Many(Vec<f32>),
+    }
+    Ok(Option::<OneOrMany>::deserialize(d)?.map(|n| match n {
+        OneOrMany::One(x) => vec![x],
+        OneOrMany::Many(v) => v,
+    }))
 }
