@@ -32,7 +32,7 @@ fn check_against_fd(scene: &Scene, path: &str, step: f32, components: &[usize]) 
         scene,
         std::slice::from_ref(&p),
         &loss,
-        &AdOptions { replicas: REPLICAS, edge_samples: 0 },
+        &AdOptions { replicas: REPLICAS, edge_samples: 0, secondary_edge_samples: 0 },
         &mut CpuBackend,
     )
     .unwrap();
@@ -129,19 +129,20 @@ fn unused_material_has_zero_gradient() {
         &s,
         &[p],
         &ImageLoss::Mean(Output::Radiance),
-        &AdOptions { replicas: 2, edge_samples: 0 },
+        &AdOptions { replicas: 2, edge_samples: 0, secondary_edge_samples: 0 },
         &mut CpuBackend,
     )
     .unwrap();
     assert_eq!(ad.mean, vec![0.0; 3]);
 }
 
-/// Geometry parameters are refused with a pointer to --fd rather than silently given a wrong (interior-only)
-/// gradient.
+/// Parameters without an analytic gradient yet are refused with a pointer to --fd rather than given a wrong one.
 #[test]
-fn geometry_parameters_are_refused_until_boundary_terms_exist() {
+fn unsupported_parameters_are_refused() {
     let s = room(24, 18, 2);
-    let p: ParamPath = "object/table/translation".parse().unwrap();
-    let e = GradLayout::new(&s, &[p]).unwrap_err().to_string();
+    let p: ParamPath = "object/table/vertices".parse().unwrap();
+    let loss = ImageLoss::Mean(Output::Radiance);
+    let opts = AdOptions { replicas: 1, edge_samples: 0, secondary_edge_samples: 0 };
+    let e = analytic_gradient(&s, &[p], &loss, &opts, &mut CpuBackend).unwrap_err().to_string();
     assert!(e.contains("--fd"), "{e}");
 }

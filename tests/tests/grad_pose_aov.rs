@@ -59,7 +59,7 @@ fn lifted_table() -> Scene {
 
 fn ad(scene: &Scene, path: &str, loss: &ImageLoss, edge_samples: u32) -> AdEstimate {
     let p: ParamPath = path.parse().unwrap();
-    let opts = AdOptions { replicas: REPLICAS, edge_samples };
+    let opts = AdOptions { replicas: REPLICAS, edge_samples, secondary_edge_samples: 0 };
     analytic_gradient(scene, &[p], loss, &opts, &mut CpuBackend).unwrap()
 }
 

@@ -34,9 +34,12 @@ pub struct GradArgs {
     /// Only these components of the parameter (comma separated); default all.
     #[arg(long, value_delimiter = ',')]
     component: Vec<usize>,
-    /// Boundary (edge) samples per gradient evaluation.
+    /// Primary boundary (camera silhouette) samples per gradient evaluation.
     #[arg(long, default_value_t = 1 << 16)]
     sppe: u32,
+    /// Secondary boundary (shadow and indirect) samples per scattering path vertex.
+    #[arg(long, default_value_t = 1)]
+    sppse: u32,
     /// Samples per pixel (overrides the scene's render.spp).
     #[arg(long)]
     spp: Option<u32>,
@@ -70,7 +73,7 @@ pub fn run(a: GradArgs) -> anyhow::Result<()> {
     let mut backend = create_backend(a.backend)?;
     let components: Vec<usize> = if a.component.is_empty() { (0..value.len()).collect() } else { a.component.clone() };
     let t = Instant::now();
-    let ad_opts = AdOptions { replicas: a.replicas, edge_samples: a.sppe };
+    let ad_opts = AdOptions { replicas: a.replicas, edge_samples: a.sppe, secondary_edge_samples: a.sppse };
     let ad = analytic_gradient(&scene, std::slice::from_ref(&a.param), &loss, &ad_opts, backend.as_mut());
     let ad_s = t.elapsed().as_secs_f64();
     let fd = match a.fd {
@@ -99,7 +102,10 @@ pub fn run(a: GradArgs) -> anyhow::Result<()> {
     let (w, h, spp) = (scene.camera.width, scene.camera.height, scene.settings.spp);
     match &ad {
         Ok(_) => {
-            println!("AD: {w}x{h} at {spp} spp, {} edge samples, {} replicas, {ad_s:.2} s (CPU)", a.sppe, a.replicas)
+            println!(
+            "AD: {w}x{h} at {spp} spp, sppe {}, sppse {}, {} replicas, {ad_s:.2} s (CPU)",
+            a.sppe, a.sppse, a.replicas
+        )
         }
         Err(e) => println!("AD: {e}"),
     }

@@ -3,6 +3,7 @@
 
 use super::aov_vjp::aov_vjp;
 use super::pose_velocity::PoseLayout;
+use super::radiance_pose_vjp::{check_supported, radiance_pose_vjp, BoundarySamples};
 use super::{mean_and_std_err, radiance_vjp, GradLayout, ImageLoss, Output, ParamPath};
 use crate::backend::Backend;
 use crate::error::Result;
@@ -21,13 +22,15 @@ pub struct AdEstimate {
 pub struct AdOptions {
     /// Independent seeds averaged (the standard error needs at least 2).
     pub replicas: u32,
-    /// Boundary (edge) samples per gradient evaluation (sppe).
+    /// Primary boundary (camera silhouette) samples per evaluation (sppe).
     pub edge_samples: u32,
+    /// Secondary boundary (shadow and indirect) samples per scattering path vertex (sppse).
+    pub secondary_edge_samples: u32,
 }
 
 impl Default for AdOptions {
     fn default() -> Self {
-        AdOptions { replicas: 1, edge_samples: 1 << 16 }
+        AdOptions { replicas: 1, edge_samples: 1 << 16, secondary_edge_samples: 1 }
     }
 }
 
@@ -35,8 +38,13 @@ impl Default for AdOptions {
 /// estimates of the image and of its derivative (the same seed would bias the product).
 const ADJOINT_SEED_OFFSET: u32 = 0x9e37_79b9;
 
-/// dLoss/dθ of `params`: radiance losses w.r.t. lights and materials (interior term), depth and mask losses
-/// w.r.t. object poses (interior + primary boundary).
+fn is_pose(p: &ParamPath) -> bool {
+    matches!(p, ParamPath::Translation(_) | ParamPath::Yaw(_) | ParamPath::Scale(_))
+}
+
+/// dLoss/dθ of `params`, in their order: radiance losses w.r.t. lights, materials (interior term) and object
+/// poses (interior + primary, direct and indirect boundary terms); depth and mask losses w.r.t. poses
+/// (interior + primary boundary; they do not depend on lights or materials, whose gradients are zero).
 pub fn analytic_gradient(
     scene: &Scene,
     params: &[ParamPath],
@@ -44,14 +52,19 @@ pub fn analytic_gradient(
     opts: &AdOptions,
     backend: &mut dyn Backend,
 ) -> Result<AdEstimate> {
+    let (pose_params, other): (Vec<ParamPath>, Vec<ParamPath>) = params.iter().cloned().partition(is_pose);
+    let material = GradLayout::new(scene, &other)?;
+    let pose = PoseLayout::new(scene, &pose_params)?;
     let radiance = matches!(loss.output(), Output::Radiance);
-    let (material, pose) = if radiance {
-        (Some(GradLayout::new(scene, params)?), None)
-    } else {
-        (None, Some(PoseLayout::new(scene, params)?))
-    };
+    if radiance {
+        check_supported(scene, &pose)?;
+    }
     let data = SceneData::build(scene)?;
     let blank = blank_frame(scene);
+    let boundary = BoundarySamples {
+        primary: opts.edge_samples,
+        secondary: if radiance { opts.secondary_edge_samples } else { 0 },
+    };
     let mut runs = vec![];
     for r in 0..opts.replicas.max(1) {
         let mut settings = scene.settings.clone();
@@ -62,11 +75,24 @@ pub fn analytic_gradient(
             loss.adjoint(&blank)?
         };
         settings.seed = settings.seed.wrapping_add(ADJOINT_SEED_OFFSET);
-        runs.push(match (&material, &pose) {
-            (Some(l), _) => radiance_vjp(&data, &settings, l, &adjoint)?,
-            (_, Some(p)) => aov_vjp(scene, &data, &settings, p, loss.output(), &adjoint, opts.edge_samples)?,
-            _ => unreachable!(),
-        });
+        let g_material = match (radiance, material.len) {
+            (true, n) if n > 0 => radiance_vjp(&data, &settings, &material, &adjoint)?,
+            _ => vec![0.0; material.len],
+        };
+        let g_pose = match (radiance, pose.len) {
+            (_, 0) => vec![],
+            (true, _) => radiance_pose_vjp(scene, &data, &settings, &pose, &adjoint, boundary)?,
+            (false, _) => aov_vjp(scene, &data, &settings, &pose, loss.output(), &adjoint, opts.edge_samples)?,
+        };
+        // Back to the caller's parameter order.
+        let (mut gm, mut gp) = (g_material.into_iter(), g_pose.into_iter());
+        let mut g = vec![];
+        for p in params {
+            let n = p.get(scene)?.len();
+            let src: &mut dyn Iterator<Item = f64> = if is_pose(p) { &mut gp } else { &mut gm };
+            g.extend(src.take(n));
+        }
+        runs.push(g);
     }
     let len = runs[0].len();
     let (mut mean, mut std_err) = (vec![], vec![]);

@@ -125,7 +125,7 @@ fn boundary(
     adjoint: &[f32],
     edge_samples: u32,
 ) -> Vec<Vec<f64>> {
-    let edges = PrimaryEdges::build(scene, &d.camera, |o| pose.moves(o));
+    let edges = PrimaryEdges::build(scene, &d.camera, false, |o| pose.moves(o));
     if edges.edges.is_empty() || edge_samples == 0 {
         return vec![];
     }

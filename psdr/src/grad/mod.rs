@@ -4,13 +4,20 @@
 
 mod ad_estimate;
 mod aov_vjp;
+mod bsdf_dual;
 mod bsdf_grad;
+mod dual;
 mod finite_difference;
+mod geometry_interior;
 mod image_loss;
 mod interior;
+mod mesh_edges;
 mod param_path;
+mod path_record;
 mod pose_velocity;
 mod primary_edges;
+mod radiance_pose_vjp;
+mod secondary_edges;
 
 pub use ad_estimate::{analytic_gradient, AdEstimate, AdOptions};
 pub use aov_vjp::aov_vjp;
@@ -21,3 +28,4 @@ pub use interior::{radiance_vjp, GradLayout};
 pub use param_path::{ParamPath, TextureSlot};
 pub use pose_velocity::{PoseComponent, PoseLayout};
 pub use primary_edges::{project, project_velocity, PrimaryEdges};
+pub use radiance_pose_vjp::{radiance_pose_vjp, BoundarySamples};

@@ -4,7 +4,7 @@
 use super::ParamPath;
 use crate::error::{Error, Result};
 use crate::scene::Scene;
-use glam::{Quat, Vec3};
+use glam::{Mat3, Quat, Vec3};
 
 /// One differentiable pose component of one object.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -75,6 +75,26 @@ impl PoseLayout {
     /// True when some entry moves `object`.
     pub fn moves(&self, object: u32) -> bool {
         self.entries.iter().any(|e| e.0 == object)
+    }
+
+    /// ∂u/∂x, the constant Jacobian of the (affine) velocity field of one component.
+    pub fn velocity_gradient(&self, object: u32, c: PoseComponent) -> Mat3 {
+        let o = object as usize;
+        match c {
+            PoseComponent::Translation(_) => Mat3::ZERO,
+            // G v = ŷ × v.
+            PoseComponent::Yaw => Mat3::from_cols(-Vec3::Z, Vec3::ZERO, Vec3::X),
+            PoseComponent::Scale(a) => {
+                let r = Mat3::from_quat(self.rotation[o]);
+                r * Mat3::from_diagonal(Vec3::AXES[a] / self.scale[o][a]) * r.transpose()
+            }
+        }
+    }
+
+    /// ∂n/∂θ of a unit normal carried by the motion (normals transform with the inverse transpose).
+    pub fn normal_velocity(&self, object: u32, c: PoseComponent, n: Vec3) -> Vec3 {
+        let gt_n = self.velocity_gradient(object, c).transpose() * n;
+        -gt_n + n * n.dot(gt_n)
     }
 
     /// ∂x/∂θ of the world-space point `x` of `object` for one component.

@@ -3,13 +3,12 @@
 //!
 //! A mesh edge can carry a visibility discontinuity for the camera when it bounds the mesh (one adjacent
 //! triangle), when its two triangles face opposite ways from the camera, or when more than two triangles meet
-//! there. Vertices are welded by exact position so meshes with per-face vertices (flat-shaded OBJs) still have
-//! adjacency. Edges hidden behind other geometry are kept: the two-sided evaluation sees no jump there.
+//! there (`mesh_edges`). Edges hidden behind other geometry are kept: the two-sided evaluation sees no jump.
 
+use super::mesh_edges::mesh_edges;
 use crate::render::layout::CameraGpu;
 use crate::scene::Scene;
 use glam::Vec3;
-use std::collections::HashMap;
 
 /// A silhouette edge clipped to the front of the camera.
 #[derive(Clone, Copy, Debug)]
@@ -43,11 +42,6 @@ pub struct EdgeSample {
     pub pdf: f32,
 }
 
-/// (object, lower welded vertex id, higher welded vertex id).
-type EdgeKey = (u32, u32, u32);
-/// The edge's endpoints and whether each adjacent triangle faces the camera.
-type EdgeFaces = (Vec3, Vec3, Vec<bool>);
-
 /// Camera-space distance in front of the camera below which edges are clipped.
 const NEAR: f32 = 1e-4;
 
@@ -75,57 +69,19 @@ pub fn project_velocity(c: &CameraGpu, x: Vec3, u: Vec3) -> [f32; 2] {
 }
 
 impl PrimaryEdges {
-    /// Silhouette edges of the objects for which `wanted(object)` is true, from the scene's own meshes (their
-    /// shared vertex positions weld exactly; positions rebuilt from the renderer's edge vectors would not).
-    pub fn build(scene: &Scene, cam: &CameraGpu, wanted: impl Fn(u32) -> bool) -> PrimaryEdges {
+    /// Silhouette edges (and, with `creases`, shading creases facing the camera) of the objects for which
+    /// `wanted(object)` is true. Depth and masks jump only at silhouettes; radiance seen along fixed camera
+    /// rays also jumps at creases, which move in the image with the object.
+    pub fn build(scene: &Scene, cam: &CameraGpu, creases: bool, wanted: impl Fn(u32) -> bool) -> PrimaryEdges {
         let eye = Vec3::from(cam.origin);
-        let mut ids: HashMap<(u32, [u32; 3]), u32> = HashMap::new();
-        let mut adj: HashMap<EdgeKey, EdgeFaces> = HashMap::new();
-        for (oi, obj) in scene.objects.iter().enumerate().filter(|(i, _)| wanted(*i as u32)) {
-            let o = oi as u32;
-            let m = obj.pose.matrix();
-            let mirror = obj.pose.is_mirroring();
-            for part in &obj.parts {
-                let world: Vec<Vec3> = part.positions.iter().map(|&p| m.transform_point3(p)).collect();
-                let vid: Vec<u32> = world
-                    .iter()
-                    .map(|p| {
-                        let n = ids.len() as u32;
-                        *ids.entry((o, p.to_array().map(f32::to_bits))).or_insert(n)
-                    })
-                    .collect();
-                for tri in &part.indices {
-                    let vs = tri.map(|i| world[i as usize]);
-                    let mut n = (vs[1] - vs[0]).cross(vs[2] - vs[0]);
-                    if n.length_squared() == 0.0 {
-                        continue; // degenerate: no area, no silhouette
-                    }
-                    if mirror {
-                        n = -n;
-                    }
-                    let front = n.dot(eye - vs[0]) > 0.0;
-                    for k in 0..3 {
-                        let (i, j) = (vid[tri[k] as usize], vid[tri[(k + 1) % 3] as usize]);
-                        if i == j {
-                            continue;
-                        }
-                        let key = (o, i.min(j), i.max(j));
-                        adj.entry(key).or_insert_with(|| (vs[k], vs[(k + 1) % 3], vec![])).2.push(front);
-                    }
-                }
-            }
-        }
         let mut edges = vec![];
-        let mut keys: Vec<_> = adj.keys().copied().collect();
-        keys.sort_unstable(); // deterministic order, independent of hashing
-        for key in keys {
-            let (a, b, facing) = &adj[&key];
-            let silhouette = facing.len() != 2 || facing[0] != facing[1];
-            if !silhouette {
-                continue;
-            }
-            if let Some(e) = clip_and_project(cam, *a, *b, key.0) {
-                edges.push(e);
+        for e in mesh_edges(scene, wanted) {
+            let keep = e.is_silhouette_from(eye)
+                || (creases && e.is_crease() && e.faces.iter().all(|f| f.normal.dot(eye - e.a) > 0.0));
+            if keep {
+                if let Some(ie) = clip_and_project(cam, e.a, e.b, e.object) {
+                    edges.push(ie);
+                }
             }
         }
         let mut cdf = Vec::with_capacity(edges.len());

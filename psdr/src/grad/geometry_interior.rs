@@ -1,0 +1,210 @@
+//! Interior term of radiance with respect to object poses, in material form: a recorded path is replayed in
+//! dual numbers along one pose component. The primary vertex is the (sliding) hit of the fixed camera ray;
+//! every later vertex is a material point carried by its surface, so moving surfaces change directions,
+//! distances, cosines, normals, BSDF values and (under scale) area elements, while sampling densities, MIS
+//! weights and roulette stay detached. Visibility changes are the boundary terms' job.
+
+use super::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
+use super::dual::{D, D3};
+use super::path_record::PathRecord;
+use super::pose_velocity::{PoseComponent, PoseLayout};
+use crate::render::layout::{TextureGpu, NONE, SHADING_HAS_NORMALS, SHADING_HAS_UVS};
+use crate::render::texture::texture_sample;
+use crate::render::SceneData;
+use glam::{Vec2, Vec3};
+
+/// A triangle whose vertices move with one pose component.
+struct DualTriangle {
+    v0: D3,
+    e1: D3,
+    e2: D3,
+    object: u32,
+}
+
+/// The moving pose component being differentiated.
+#[derive(Clone, Copy)]
+pub struct Tangent<'a> {
+    pub pose: &'a PoseLayout,
+    pub object: u32,
+    pub component: PoseComponent,
+}
+
+impl Tangent<'_> {
+    fn moves(&self, object: u32) -> bool {
+        object == self.object
+    }
+    fn point(&self, object: u32, x: Vec3) -> D3 {
+        D3 { v: x, d: if self.moves(object) { self.pose.velocity(object, self.component, x) } else { Vec3::ZERO } }
+    }
+    fn normal(&self, object: u32, n: Vec3) -> D3 {
+        D3 {
+            v: n,
+            d: if self.moves(object) { self.pose.normal_velocity(object, self.component, n) } else { Vec3::ZERO },
+        }
+    }
+}
+
+fn triangle(d: &SceneData, t: &Tangent, ti: u32) -> DualTriangle {
+    let tri = &d.triangles[ti as usize];
+    let v0 = Vec3::from(tri.v0);
+    let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
+    let p0 = t.point(tri.object, v0);
+    let (p1, p2) = (t.point(tri.object, v0 + e1), t.point(tri.object, v0 + e2));
+    // Keep the primal edge vectors bit-exact; only tangents come from the velocity field.
+    DualTriangle { v0: p0, e1: D3 { v: e1, d: p1.d - p0.d }, e2: D3 { v: e2, d: p2.d - p0.d }, object: tri.object }
+}
+
+impl DualTriangle {
+    fn point(&self, u: D, v: D) -> D3 {
+        self.v0 + self.e1 * u + self.e2 * v
+    }
+    fn normal(&self) -> D3 {
+        self.e1.cross(self.e2).normalize()
+    }
+    /// Möller–Trumbore for the ray from a (possibly moving) origin along a fixed direction: (t, u, v).
+    fn intersect(&self, o: D3, dir: Vec3) -> (D, D, D) {
+        let dir = D3::c(dir);
+        let p = dir.cross(self.e2);
+        let inv_det = D::c(1.0) / self.e1.dot(p);
+        let s = o - self.v0;
+        let u = s.dot(p) * inv_det;
+        let q = s.cross(self.e1);
+        (self.e2.dot(q) * inv_det, u, dir.dot(q) * inv_det)
+    }
+}
+
+/// Shading point in duals: the shading normal (flipped toward the incoming ray as
+/// `render::shading::surface_point` flips it) and material parameters.
+struct DualPoint {
+    ns: D3,
+    bsdf: BsdfParamsD,
+}
+
+/// Channel `c` of the bilinear lookup at uv and its derivative along duv (render/texture.rs's lookup,
+/// differentiated inside the texel cell; the four texels are read back through the lookup at their centres).
+fn dual_texture(d: &SceneData, t: &TextureGpu, uv: Vec2, duv: Vec2, c: u32) -> D {
+    let x = uv.x * t.width as f32 - 0.5;
+    let y = (1.0 - uv.y) * t.height as f32 - 0.5;
+    let (fx, fy) = (x - x.floor(), y - y.floor());
+    let at = |dx: f32, dy: f32| {
+        let uv = Vec2::new((x.floor() + dx + 0.5) / t.width as f32, 1.0 - (y.floor() + dy + 0.5) / t.height as f32);
+        texture_sample(&d.texels, t, uv, c)
+    };
+    let (a, b, e, f) = (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0));
+    let d_x = (1.0 - fy) * (b - a) + fy * (f - e);
+    let d_y = (1.0 - fx) * (e - a) + fx * (f - b);
+    D { v: texture_sample(&d.texels, t, uv, c), d: d_x * duv.x * t.width as f32 - d_y * duv.y * t.height as f32 }
+}
+
+fn dual_point(d: &SceneData, tg: &Tangent, ti: u32, tri: &DualTriangle, u: D, v: D, incoming: Vec3) -> DualPoint {
+    let sh = &d.shading[ti as usize];
+    let mat = &d.materials[d.triangles[ti as usize].material as usize];
+    let mut ng = tri.normal();
+    let w = 1.0 - u - v;
+    let mut ns = if sh.flags & SHADING_HAS_NORMALS != 0 {
+        let n = tg.normal(tri.object, Vec3::from(sh.n0)) * w
+            + tg.normal(tri.object, Vec3::from(sh.n1)) * u
+            + tg.normal(tri.object, Vec3::from(sh.n2)) * v;
+        if n.v.length() > 0.0 {
+            n.normalize()
+        } else {
+            ng
+        }
+    } else {
+        ng
+    };
+    if ng.v.dot(incoming) >= 0.0 {
+        ng = -ng;
+    }
+    if ns.v.dot(ng.v) < 0.0 {
+        ns = -ns;
+    }
+    // Texture coordinates slide only where the barycentrics do (the primary vertex on a moving object).
+    let (uv, duv) = if sh.flags & SHADING_HAS_UVS != 0 {
+        let (uv0, uv1, uv2) = (Vec2::from(sh.uv0), Vec2::from(sh.uv1), Vec2::from(sh.uv2));
+        (uv0 * w.v + uv1 * u.v + uv2 * v.v, uv0 * w.d + uv1 * u.d + uv2 * v.d)
+    } else {
+        (Vec2::new(u.v, v.v), Vec2::new(u.d, v.d))
+    };
+    let row = |r: [f32; 4], uv: Vec2, lin: bool| r[0] * uv.x + r[1] * uv.y + if lin { 0.0 } else { r[2] };
+    let uvt = Vec2::new(row(mat.uv_row0, uv, false), row(mat.uv_row1, uv, false));
+    let duvt = Vec2::new(row(mat.uv_row0, duv, true), row(mat.uv_row1, duv, true));
+    let scalar = |tex: u32, constant: f32| {
+        if tex != NONE {
+            dual_texture(d, &d.textures[tex as usize], uvt, duvt, 0)
+        } else {
+            D::c(constant)
+        }
+    };
+    let albedo = if mat.albedo_tex != NONE {
+        let t = &d.textures[mat.albedo_tex as usize];
+        let c = |k| dual_texture(d, t, uvt, duvt, k);
+        let (r, g, b) = (c(0), c(1), c(2));
+        D3 { v: Vec3::new(r.v, g.v, b.v), d: Vec3::new(r.d, g.d, b.d) }
+    } else {
+        D3::c(Vec3::from(mat.albedo))
+    };
+    // The primal clamps to [0, 1]; clamped channels do not move.
+    let clamp3 = |a: D3| D3 {
+        v: a.v.clamp(Vec3::ZERO, Vec3::ONE),
+        d: Vec3::select(a.v.cmplt(Vec3::ZERO) | a.v.cmpgt(Vec3::ONE), Vec3::ZERO, a.d),
+    };
+    let bsdf = BsdfParamsD {
+        albedo: clamp3(albedo),
+        roughness: scalar(mat.roughness_tex, mat.roughness).clamp_c(0.0, 1.0),
+        specular: scalar(mat.specular_tex, mat.specular).clamp_c(0.0, 1.0),
+    };
+    DualPoint { ns, bsdf }
+}
+
+/// True when some triangle of the path (a vertex or a light sample) belongs to the moving object.
+pub fn path_touches(d: &SceneData, rec: &PathRecord, object: u32) -> bool {
+    rec.vertices.iter().any(|v| {
+        d.triangles[v.triangle as usize].object == object
+            || v.nee.is_some_and(|n| d.triangles[n.triangle as usize].object == object)
+    })
+}
+
+/// d(path radiance)/dθ along one pose component, and the replayed radiance (equal to the recorded one).
+///
+/// Ray form: every sampled direction (camera ray, BSDF samples, next-event directions) is held fixed in world
+/// space and each vertex is where the ray from the (possibly moved) previous vertex meets its (possibly moved)
+/// triangle; densities are detached. What moves is then the vertices along their rays, normals and textures at
+/// the sliding hit points. Visibility changes along fixed directions (silhouettes, creases, emitter borders)
+/// are the boundary terms' part, which `secondary_edges` and the primary edges sample in the same (solid angle)
+/// form.
+///
+/// `vertex_velocity` receives dx_k/dθ of every vertex (how the ray-form vertices slide).
+pub fn replay_radiance(d: &SceneData, tg: &Tangent, rec: &PathRecord, vertex_velocity: &mut Vec<Vec3>) -> (Vec3, Vec3) {
+    vertex_velocity.clear();
+    let mut throughput = D3::c(Vec3::ONE);
+    let mut radiance = D3::default();
+    let mut origin = D3::c(rec.origin);
+    let mut dir = rec.dir;
+    for (k, v) in rec.vertices.iter().enumerate() {
+        let tri = triangle(d, tg, v.triangle);
+        let (_, u, vv) = tri.intersect(origin, dir);
+        let p = tri.point(u, vv);
+        vertex_velocity.push(p.d);
+        let sp = dual_point(d, tg, v.triangle, &tri, u, vv, dir);
+        let wi = D3::c(-dir);
+        if v.emitter != NONE {
+            radiance = radiance + throughput.mul_c(v.emission * v.emission_mis);
+        }
+        if let Some(n) = &v.nee {
+            // Fixed direction toward the recorded light point; emission is constant over the light.
+            let wl = D3::c(n.dir);
+            let f = bsdf_eval_dual(&sp.bsdf, sp.ns, wi, wl);
+            radiance = radiance + (throughput * f).mul_c(n.radiance * n.w_over_pdf);
+        }
+        let Some(c) = v.next else { break };
+        if k + 1 >= rec.vertices.len() {
+            break;
+        }
+        let f = bsdf_eval_dual(&sp.bsdf, sp.ns, wi, D3::c(c.dir));
+        throughput = throughput * (f * D::c(1.0 / (c.pdf * c.q)));
+        origin = p;
+        dir = c.dir;
+    }
+    (radiance.d, radiance.v)
+}

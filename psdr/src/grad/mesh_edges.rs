@@ -1,0 +1,100 @@
+//! The welded edges of object meshes with what their adjacent triangles look like: the raw material of every
+//! boundary term. Vertices are welded by exact world position per object (meshes with per-face vertices, such
+//! as flat-shaded OBJs, still get adjacency); positions come from the scene's own meshes, because positions
+//! rebuilt from the renderer's edge vectors do not weld bit-exactly.
+
+use crate::scene::Scene;
+use glam::Vec3;
+use std::collections::HashMap;
+
+/// One triangle next to an edge.
+#[derive(Clone, Copy, Debug)]
+pub struct Face {
+    /// Unit geometric normal (winding, corrected for mirroring poses).
+    pub normal: Vec3,
+    pub material: usize,
+    /// Shading normals at the edge's two endpoints (the face normal when the part has none).
+    pub shading: [Vec3; 2],
+}
+
+#[derive(Clone, Debug)]
+pub struct MeshEdge {
+    pub a: Vec3,
+    pub b: Vec3,
+    pub object: u32,
+    pub faces: Vec<Face>,
+}
+
+impl MeshEdge {
+    /// Whether the edge can carry a visibility discontinuity seen from x: a mesh boundary, an edge whose two
+    /// faces x sees from different sides, or a non-manifold edge.
+    pub fn is_silhouette_from(&self, x: Vec3) -> bool {
+        match self.faces.as_slice() {
+            [f1, f2] => (f1.normal.dot(x - self.a) > 0.0) != (f2.normal.dot(x - self.a) > 0.0),
+            _ => true,
+        }
+    }
+
+    /// Whether shading jumps across the edge although both faces are visible from the same side: flat-shaded
+    /// creases, split normals, material changes.
+    pub fn is_crease(&self) -> bool {
+        match self.faces.as_slice() {
+            [f1, f2] => {
+                f1.material != f2.material
+                    || (f1.shading[0] - f2.shading[0]).length_squared() > 1e-10
+                    || (f1.shading[1] - f2.shading[1]).length_squared() > 1e-10
+            }
+            _ => false,
+        }
+    }
+}
+
+/// All welded edges of the objects for which `wanted(object)` holds, in a deterministic order.
+pub fn mesh_edges(scene: &Scene, wanted: impl Fn(u32) -> bool) -> Vec<MeshEdge> {
+    let mut ids: HashMap<(u32, [u32; 3]), u32> = HashMap::new();
+    let mut by_key: HashMap<(u32, u32, u32), usize> = HashMap::new();
+    let mut edges: Vec<MeshEdge> = vec![];
+    for (oi, obj) in scene.objects.iter().enumerate().filter(|(i, _)| wanted(*i as u32)) {
+        let o = oi as u32;
+        let m = obj.pose.matrix();
+        let nm = obj.pose.normal_matrix();
+        let mirror = if obj.pose.is_mirroring() { -1.0 } else { 1.0 };
+        for part in &obj.parts {
+            let world: Vec<Vec3> = part.positions.iter().map(|&p| m.transform_point3(p)).collect();
+            let normals: Option<Vec<Vec3>> =
+                part.normals.as_ref().map(|ns| ns.iter().map(|&n| (nm * n).normalize_or_zero()).collect());
+            let vid: Vec<u32> = world
+                .iter()
+                .map(|p| {
+                    let n = ids.len() as u32;
+                    *ids.entry((o, p.to_array().map(f32::to_bits))).or_insert(n)
+                })
+                .collect();
+            for tri in &part.indices {
+                let vs = tri.map(|i| world[i as usize]);
+                let n = (vs[1] - vs[0]).cross(vs[2] - vs[0]);
+                if n.length_squared() == 0.0 {
+                    continue; // degenerate: no area, no edges
+                }
+                let n = n.normalize() * mirror;
+                for k in 0..3 {
+                    let (ia, ib) = (tri[k] as usize, tri[(k + 1) % 3] as usize);
+                    let (i, j) = (vid[ia], vid[ib]);
+                    if i == j {
+                        continue;
+                    }
+                    // Shading normals in the edge's (a, b) order.
+                    let sn = |v: usize| normals.as_ref().map_or(n, |ns| ns[v]);
+                    let at = *by_key.entry((o, i.min(j), i.max(j))).or_insert_with(|| {
+                        edges.push(MeshEdge { a: vs[k], b: vs[(k + 1) % 3], object: o, faces: vec![] });
+                        edges.len() - 1
+                    });
+                    let same_dir = edges[at].a == vs[k];
+                    let shading = if same_dir { [sn(ia), sn(ib)] } else { [sn(ib), sn(ia)] };
+                    edges[at].faces.push(Face { normal: n, material: part.material, shading });
+                }
+            }
+        }
+    }
+    edges
+}

@@ -1,0 +1,168 @@
+//! Secondary boundary terms: discontinuities seen from path vertices (shadows of moving objects for direct
+//! light, the same edges deeper in the path for indirect light, and, for vertices riding on a moving object,
+//! every edge of the scene, emitter borders included). At a path vertex x the scattering integral
+//! ∫ f(ω) cos L_in(ω) dω jumps across the directions of silhouette edges and of shading creases as seen from x
+//! (the interior replay holds directions fixed, so creases count, as for the camera); when an edge moves
+//! relative to x, the integral changes by
+//!     ∫_edge [h(ω⁻) − h(ω⁺)] (dω_e/dθ · n̂) dℓ,     h = f · cos · L_in,
+//! where ω_e is the edge point's direction, n̂ the unit normal of the edge's arc on the sphere of directions and
+//! dℓ its arc length. We pick one silhouette edge with probability proportional to its approximate arc length,
+//! a point uniformly along it, and estimate L_in on both sides with two paths sharing their random numbers.
+//! Every vertex that scatters gets these samples, so shadows (direct) and occluders seen after bounces
+//! (indirect) are both covered, to the path's full depth.
+
+use super::mesh_edges::{mesh_edges, MeshEdge};
+use super::path_record::{record_from, PathRecord};
+use super::pose_velocity::PoseLayout;
+use crate::render::bsdf::bsdf_eval;
+use crate::render::layout::FrameParams;
+use crate::render::sampler::Sampler;
+use crate::render::shading::{offset_origin, surface_point};
+use crate::render::SceneData;
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// Angular offset of the two side directions from an edge (radians).
+const SIDE_EPS: f32 = 1e-4;
+/// Seed tweak separating secondary edge samples from pixel samples.
+const SECONDARY_SEED: u32 = 0xbb67_ae85;
+
+/// All welded mesh edges, those of moving objects first (built once per scene and pose set). A vertex on a
+/// static surface sees only moving edges move; a vertex riding on a moving object sees every edge move
+/// relative to itself.
+pub struct SecondaryEdges {
+    edges: Vec<MeshEdge>,
+    moving: usize,
+}
+
+impl SecondaryEdges {
+    pub fn build(scene: &Scene, moving: impl Fn(u32) -> bool) -> SecondaryEdges {
+        let mut edges = mesh_edges(scene, &moving);
+        let n = edges.len();
+        edges.extend(mesh_edges(scene, |o| !moving(o)));
+        SecondaryEdges { edges, moving: n }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.moving == 0
+    }
+}
+
+/// One recorded camera path and what the boundary sampler needs with it.
+pub struct SecondaryPath<'a> {
+    pub rec: &'a PathRecord,
+    /// dx_k/dθ of each vertex for each pose entry (ray-form vertices slide along their rays).
+    pub velocities: &'a [Vec<Vec3>],
+    pub sampler: &'a Sampler,
+    /// The pixel's adjoint divided by spp.
+    pub delta: Vec3,
+}
+
+/// Adds the secondary boundary contributions of one recorded path to `grad`, with `count` edge samples per
+/// scattering vertex.
+pub fn secondary_boundary(
+    d: &SceneData,
+    fp: &FrameParams,
+    pose: &PoseLayout,
+    edges: &SecondaryEdges,
+    path: &SecondaryPath,
+    count: u32,
+    grad: &mut [f64],
+) {
+    let (rec, s, delta) = (path.rec, path.sampler, path.delta);
+    if edges.is_empty() {
+        return;
+    }
+    let mut sub = PathRecord::default();
+    let mut weights = Vec::with_capacity(edges.edges.len());
+    let mut prev_p = rec.origin;
+    for (k, v) in rec.vertices.iter().enumerate() {
+        let tri = &d.triangles[v.triangle as usize];
+        let p = Vec3::from(tri.v0) + Vec3::from(tri.e1) * v.u + Vec3::from(tri.e2) * v.v;
+        let incoming = if k == 0 { rec.dir } else { (p - prev_p).normalize() };
+        prev_p = p;
+        // Only vertices that scatter (the primal stops before the last allowed vertex).
+        if k as u32 + 1 >= fp.max_depth {
+            break;
+        }
+        let sp = surface_point(d, v.triangle, v.u, v.v, incoming);
+        let wi = sp.to_local(-incoming);
+        // Candidate edges and their approximate arc lengths on the sphere around p (upper hemisphere only).
+        weights.clear();
+        let mut total = 0.0f32;
+        // A vertex moves when its triangle or any earlier vertex does (ray form).
+        let x_moves = pose.entries.iter().enumerate().any(|(i, _)| path.velocities[i][k] != Vec3::ZERO);
+        let candidates = &edges.edges[..if x_moves { edges.edges.len() } else { edges.moving }];
+        for e in candidates {
+            let above = sp.ng.dot(e.a - sp.p) > 0.0 || sp.ng.dot(e.b - sp.p) > 0.0;
+            let creased = e.is_crease() && e.faces.iter().all(|f| f.normal.dot(sp.p - e.a) > 0.0);
+            let w = if above && (e.is_silhouette_from(sp.p) || creased) {
+                let mid = 0.5 * (e.a + e.b) - sp.p;
+                let r = mid.length();
+                let om = mid / r;
+                let ab = e.b - e.a;
+                (ab - om * om.dot(ab)).length() / r
+            } else {
+                0.0
+            };
+            total += w;
+            weights.push(total);
+        }
+        if total.is_nan() || total <= 0.0 {
+            continue;
+        }
+        let sub_fp = FrameParams {
+            max_depth: fp.max_depth - (k as u32 + 1),
+            rr_depth: fp.rr_depth.saturating_sub(k as u32 + 1),
+            ..*fp
+        };
+        let a = delta * v.throughput;
+        for j in 0..count {
+            let es =
+                Sampler { seed: s.seed ^ SECONDARY_SEED, pixel: s.pixel, sample: s.sample * 4096 + k as u32 * 64 + j };
+            let target = es.get(0) * total;
+            let ei = weights.partition_point(|&c| c <= target).min(weights.len() - 1);
+            let e = &candidates[ei];
+            let p_edge = (weights[ei] - if ei == 0 { 0.0 } else { weights[ei - 1] }) / total;
+            let q = e.a + (e.b - e.a) * es.get(1);
+            let to = q - sp.p;
+            let r = to.length();
+            if r.is_nan() || r <= 0.0 {
+                continue;
+            }
+            let om = to / r;
+            let ab = e.b - e.a;
+            let tau = (ab - om * om.dot(ab)) / r; // dω/dt along the edge
+            let n_hat = om.cross(tau);
+            let n_len = n_hat.length();
+            if n_len.is_nan() || n_len <= 0.0 {
+                continue;
+            }
+            let n_hat = n_hat / n_len;
+            let mut side = |sign: f32| {
+                let w = (om + n_hat * (sign * SIDE_EPS)).normalize();
+                let f = bsdf_eval(&sp.bsdf, wi, sp.to_local(w));
+                if f == Vec3::ZERO {
+                    return Vec3::ZERO;
+                }
+                record_from(d, &sub_fp, &es, offset_origin(sp.p, sp.ng, w), w, &mut sub);
+                f * sub.radiance()
+            };
+            let jump = side(-1.0) - side(1.0);
+            if jump == Vec3::ZERO {
+                continue;
+            }
+            let scale = a.dot(jump) * tau.length() / (p_edge * count as f32);
+            for (i, &(o, comp, at)) in pose.entries.iter().enumerate() {
+                // Velocity of the edge point (a material point) relative to x (a sliding ray-form vertex).
+                let edge_velocity = if e.object == o { pose.velocity(o, comp, q) } else { Vec3::ZERO };
+                let rel = edge_velocity - path.velocities[i][k];
+                if rel == Vec3::ZERO {
+                    continue;
+                }
+                let v_dir = (rel - om * om.dot(rel)) / r;
+                grad[at] += (scale * v_dir.dot(n_hat)) as f64;
+            }
+        }
+    }
+}
