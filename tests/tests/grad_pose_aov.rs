@@ -1,30 +1,16 @@
 //! Depth and coverage-mask gradients with respect to object poses (interior + primary boundary) against central
 //! finite differences.
 //!
-//! Statistical bound: AD and FD each average R independent seeds; the difference must stay within
-//! 4·sqrt(s_a² + s_f²) of their standard errors (t with R−1 ≥ 11 degrees of freedom: a correct implementation
-//! fails one comparison with probability < 0.3 %; seeds are fixed, so runs are reproducible).
+//! Bound: see grad_common (4 combined standard errors over R = 12 seeds).
 
-use psdr::backend::CpuBackend;
-use psdr::grad::{
-    analytic_gradient, central_difference, AdEstimate, AdOptions, FdOptions, ImageLoss, Output, ParamPath,
-};
+mod grad_common;
+
+use grad_common::{ad as ad_with, fd, scene_from_json};
+use psdr::grad::{AdEstimate, AdOptions, ImageLoss, Output};
 use psdr::render::{render_cpu, SceneData};
 use psdr::scene::{load_scene, Scene};
-use std::path::PathBuf;
-use std::sync::atomic::{AtomicU32, Ordering};
 
 const REPLICAS: u32 = 12;
-
-fn write_scene(name: &str, json: &str) -> PathBuf {
-    static NEXT: AtomicU32 = AtomicU32::new(0);
-    let k = NEXT.fetch_add(1, Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("psdr_grad_pose_{}_{k}_{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join("scene.json");
-    std::fs::write(&p, json).unwrap();
-    p
-}
 
 /// A rotated box in front of the camera with a light above; `x` shifts the box sideways.
 fn box_scene(x: f32) -> Scene {
@@ -39,7 +25,7 @@ fn box_scene(x: f32) -> Scene {
         {{ "name": "lamp", "type": "rectangle", "size": [1, 1], "material": "w",
            "transform": {{ "translation": [0, 3, -3], "rotation_deg": [90, 0, 0] }}, "emitter": {{ "radiance": 1 }} }} ] }}"#
     );
-    load_scene(&write_scene(&format!("box{x}"), &json)).unwrap()
+    scene_from_json("box", &json)
 }
 
 /// The example room's table (an OBJ of five boxes) lifted 5 cm off the floor, small image.
@@ -58,29 +44,12 @@ fn lifted_table() -> Scene {
 }
 
 fn ad(scene: &Scene, path: &str, loss: &ImageLoss, edge_samples: u32) -> AdEstimate {
-    let p: ParamPath = path.parse().unwrap();
-    let opts = AdOptions { replicas: REPLICAS, edge_samples, secondary_edge_samples: 0 };
-    analytic_gradient(scene, &[p], loss, &opts, &mut CpuBackend).unwrap()
+    ad_with(scene, path, loss, AdOptions { replicas: REPLICAS, edge_samples, secondary_edge_samples: 0 })
 }
 
 fn check(scene: &Scene, path: &str, loss: &ImageLoss, step: f32) {
-    let p: ParamPath = path.parse().unwrap();
-    let a = ad(scene, path, loss, 1 << 17);
-    let opts = FdOptions { step, replicas: REPLICAS, components: vec![] };
-    let f = central_difference(scene, &p, loss, &opts, &mut CpuBackend).unwrap();
-    for c in 0..a.mean.len() {
-        let bound = 4.0 * (a.std_err[c].powi(2) + f.std_err[c].powi(2)).sqrt();
-        let diff = (a.mean[c] - f.mean[c]).abs();
-        eprintln!(
-            "{path}[{c}] {:?}: AD {:+.4e} ± {:.1e}, FD {:+.4e} ± {:.1e} (|diff| {diff:.1e}, bound {bound:.1e})",
-            loss.output(),
-            a.mean[c],
-            a.std_err[c],
-            f.mean[c],
-            f.std_err[c]
-        );
-        assert!(diff <= bound, "{path}[{c}]: AD {} vs FD {} (bound {bound})", a.mean[c], f.mean[c]);
-    }
+    let opts = AdOptions { replicas: REPLICAS, edge_samples: 1 << 17, secondary_edge_samples: 0 };
+    grad_common::check(scene, path, loss, step, opts);
 }
 
 #[test]
@@ -115,10 +84,8 @@ fn boundary_term_carries_the_mask_gradient() {
     let loss = ImageLoss::Mean(Output::Mask(0));
     let interior_only = ad(&s, "object/box/translation", &loss, 0);
     assert_eq!(interior_only.mean, vec![0.0; 3]);
-    let p: ParamPath = "object/box/translation".parse().unwrap();
-    let opts = FdOptions { step: 0.01, replicas: REPLICAS, components: vec![2] };
-    let f = central_difference(&s, &p, &loss, &opts, &mut CpuBackend).unwrap();
-    assert!(f.mean[0].abs() > 8.0 * f.std_err[0], "FD {} ± {} should be clearly nonzero", f.mean[0], f.std_err[0]);
+    let f = fd(&s, "object/box/translation", &loss, 0.01, REPLICAS);
+    assert!(f.mean[2].abs() > 8.0 * f.std_err[2], "FD {} ± {} should be clearly nonzero", f.mean[2], f.std_err[2]);
 }
 
 /// Mirror symmetry: an unrotated box at +x and at −x (mirror images through the camera's vertical plane; the

@@ -35,14 +35,13 @@ fn ggx_alpha(roughness: D) -> D {
     (roughness * roughness).max_c(MIN_ALPHA)
 }
 
-/// GGX D(h) from cos(h, n).
-fn ggx_d(cos_h: D, alpha: D) -> D {
+/// GGX D(h) from cos(h, n) and sin²(h, n) (the sine form, as render::bsdf::ggx_d, keeps f32 digits).
+fn ggx_d(cos_h: D, sin2_h: D, alpha: D) -> D {
     if cos_h.v <= 0.0 {
         return D::c(0.0);
     }
     let a2 = alpha * alpha;
-    let c2 = cos_h * cos_h;
-    let d = c2 * (a2 + -1.0) + 1.0;
+    let d = sin2_h + cos_h * cos_h * a2;
     a2 / (d * d * PI)
 }
 
@@ -73,7 +72,9 @@ pub fn bsdf_eval_dual(p: &BsdfParamsD, n: D3, wi: D3, wo: D3) -> D3 {
     let alpha = ggx_alpha(p.roughness);
     let h = (wi + wo).normalize();
     let f_h = fresnel_dielectric(wi.dot(h), eta);
-    let spec = ggx_d(h.dot(n), alpha) * ggx_g1(cos_i, alpha) * ggx_g1(cos_o, alpha) * f_h / (cos_i * 4.0);
+    let cos_h = h.dot(n);
+    let h_t = h - n * cos_h;
+    let spec = ggx_d(cos_h, h_t.dot(h_t), alpha) * ggx_g1(cos_i, alpha) * ggx_g1(cos_o, alpha) * f_h / (cos_i * 4.0);
     diffuse + D3 { v: glam::Vec3::splat(spec.v), d: glam::Vec3::splat(spec.d) }
 }
 

@@ -21,7 +21,7 @@ fn ggx_d_dalpha(h: Vec3, alpha: f32) -> f32 {
     }
     let a2 = alpha * alpha;
     let c2 = h.z * h.z;
-    let d = c2 * (a2 - 1.0) + 1.0;
+    let d = (h.x * h.x + h.y * h.y) + c2 * a2; // as render::bsdf::ggx_d (sine form keeps f32 digits)
     (d - 2.0 * a2 * c2) / (PI * d * d * d) * 2.0 * alpha
 }
 

@@ -5,10 +5,11 @@
 
 use super::bsdf_grad::{bsdf_eval_grad, BsdfGrad};
 use crate::render::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample};
-use crate::render::bvh::{trace_closest, trace_occluded};
+use crate::render::bvh::trace_closest;
 use crate::render::camera::camera_ray;
 use crate::render::layout::{FrameParams, NONE};
 use crate::render::light::{emitted_radiance, light_pdf_area, mis_power, sample_light, select_light};
+use crate::render::path_trace::unoccluded;
 use crate::render::sampler::*;
 use crate::render::shading::{offset_origin, surface_point};
 use crate::render::SceneData;
@@ -137,8 +138,7 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
             if cos_l > 0.0 && dist > 0.0 {
                 let f = bsdf_eval(&sp.bsdf, wi, sp.to_local(wl));
                 if f != Vec3::ZERO {
-                    let o = offset_origin(sp.p, sp.ng, wl);
-                    if !trace_occluded(&d.nodes, &d.triangles, o, wl, dist * (1.0 - 1e-4)) {
+                    if unoccluded(d, sp.p, sp.ng, ls.p, ls.n) {
                         let light_pdf = ls.pdf_area * dist2 / cos_l;
                         let w = mis_power(light_pdf, bsdf_pdf(&sp.bsdf, wi, sp.to_local(wl)));
                         let nee = RecordedNee {

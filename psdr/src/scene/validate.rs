@@ -17,6 +17,9 @@ pub fn validate(scene: &Scene) -> Result<(), (String, String)> {
     if scene.settings.spp == 0 {
         return Err(("render.spp".into(), "must be at least 1".into()));
     }
+    if scene.settings.max_depth == 0 {
+        return Err(("render.max_depth".into(), "must be at least 1 (1 = emitters seen directly)".into()));
+    }
     let ntex = scene.textures.len();
     for (i, m) in scene.materials.iter().enumerate() {
         let f = |p: &str| format!("materials[{i}] ('{}').{p}", m.name);
