@@ -88,7 +88,8 @@ impl TextureTransform {
         }
     }
 
-    /// Adds dL/d(texels) into `d_texels` (same layout as `tex.texels`) and dL/d(transform) into `grad`, given
+    /// Adds dL/d(texels) into `d_texels` (same layout as `tex.texels`; `None` skips them) and dL/d(transform)
+    /// into `grad`, given
     /// dL/d(out) of one [`lookup`](Self::lookup) at `uv`. Exact inside a texel cell; bilinear filtering makes the
     /// uv derivative jump where the lookup crosses texel centres.
     pub fn lookup_backward(
@@ -96,7 +97,7 @@ impl TextureTransform {
         tex: &TextureView,
         uv: [f64; 2],
         d_out: &[f64],
-        d_texels: &mut [f64],
+        mut d_texels: Option<&mut [f64]>,
         grad: &mut TransformGrad,
     ) {
         let fp = tex.footprint(self.apply(uv));
@@ -104,8 +105,10 @@ impl TextureTransform {
         let (mut d_x, mut d_y) = (0.0, 0.0);
         for (ch, &d) in d_out.iter().enumerate().take(tex.channels) {
             let t = |k: usize| tex.texels[fp.idx[k] + ch] as f64;
-            for k in 0..4 {
-                d_texels[fp.idx[k] + ch] += w[k] * d;
+            if let Some(dt) = d_texels.as_deref_mut() {
+                for k in 0..4 {
+                    dt[fp.idx[k] + ch] += w[k] * d;
+                }
             }
             d_x += d * ((1.0 - fp.fy) * (t(1) - t(0)) + fp.fy * (t(3) - t(2)));
             d_y += d * ((1.0 - fp.fx) * (t(2) - t(0)) + fp.fx * (t(3) - t(1)));
@@ -162,7 +165,7 @@ mod tests {
             let uv = [r(6) * 2.0 - 0.5, r(7) * 2.0 - 0.5];
             let mut g = TransformGrad::default();
             let mut d_tex = vec![0.0; texels.len()];
-            t.lookup_backward(&tex, uv, &d_out, &mut d_tex, &mut g);
+            t.lookup_backward(&tex, uv, &d_out, Some(&mut d_tex), &mut g);
             let eps = 1e-7;
             let cell = |t: &TextureTransform| {
                 let p = t.apply(uv);

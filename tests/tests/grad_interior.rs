@@ -87,10 +87,9 @@ fn light_radiance_matches_finite_differences() {
     check_against_fd(&room(40, 30, 8), "light/ceiling_light/radiance", 0.5, &[1]);
 }
 
-/// A floor textured with a 4x4 EXR (large texels) seen from above: the gradient of one texel.
-#[test]
-fn single_texel_matches_finite_differences() {
-    let dir = std::env::temp_dir().join(format!("psdr_grad_texel_{}", std::process::id()));
+/// A floor textured with a 4x4 EXR (large texels) seen from above, with a uv transform.
+fn textured_floor(uv_transform: &str) -> Scene {
+    let dir = std::env::temp_dir().join(format!("psdr_grad_texel_{}_{}", std::process::id(), uv_transform.len()));
     std::fs::create_dir_all(&dir).unwrap();
     let texels: Vec<f32> = (0..16).map(|i| 0.2 + 0.04 * i as f32).collect();
     let ch = |k: usize| texels.iter().map(|v| v * [1.0, 0.9, 0.8][k]).collect::<Vec<f32>>();
@@ -101,22 +100,44 @@ fn single_texel_matches_finite_differences() {
         &[("R".into(), ch(0)), ("G".into(), ch(1)), ("B".into(), ch(2))],
     )
     .unwrap();
-    let scene = r#"{
+    let scene = format!(
+        r#"{{
       "format": "psdr-scene", "version": 1,
-      "camera": { "origin": [0, 2, 0.01], "target": [0, 0, 0], "up": [0, 0, -1], "fov_y": 50, "width": 32, "height": 32 },
-      "render": { "spp": 8, "max_depth": 3 },
-      "materials": [ { "name": "floor", "albedo": { "texture": "checker.exr" }, "specular": 0 },
-                     { "name": "white", "albedo": 0.8, "specular": 0 } ],
+      "camera": {{ "origin": [0, 2, 0.01], "target": [0, 0, 0], "up": [0, 0, -1], "fov_y": 50, "width": 32, "height": 32 }},
+      "render": {{ "spp": 8, "max_depth": 3 }},
+      "materials": [ {{ "name": "floor", "albedo": {{ "texture": "checker.exr" }}, "specular": 0 {uv_transform} }},
+                     {{ "name": "white", "albedo": 0.8, "specular": 0 }} ],
       "shapes": [
-        { "name": "floor", "type": "rectangle", "size": [2, 2], "material": "floor", "transform": { "rotation_deg": [-90, 0, 0] } },
-        { "name": "lamp", "type": "rectangle", "size": [1, 1], "material": "white",
-          "transform": { "translation": [0.5, 1.5, 0], "rotation_deg": [90, 0, 0] }, "emitter": { "radiance": 5 } }
+        {{ "name": "floor", "type": "rectangle", "size": [2, 2], "material": "floor", "transform": {{ "rotation_deg": [-90, 0, 0] }} }},
+        {{ "name": "lamp", "type": "rectangle", "size": [1, 1], "material": "white",
+          "transform": {{ "translation": [0.5, 1.5, 0], "rotation_deg": [90, 0, 0] }}, "emitter": {{ "radiance": 5 }} }}
       ]
-    }"#;
+    }}"#
+    );
     std::fs::write(dir.join("scene.json"), scene).unwrap();
     let s = load_scene(&dir.join("scene.json")).unwrap();
-    check_against_fd(&s, "material/floor/albedo.texel[1,2]", 0.05, &[0, 2]);
     std::fs::remove_dir_all(&dir).ok();
+    s
+}
+
+#[test]
+fn single_texel_matches_finite_differences() {
+    check_against_fd(&textured_floor(""), "material/floor/albedo.texel[1,2]", 0.05, &[0, 2]);
+}
+
+/// The texture is piecewise bilinear, so the FD step stays well inside a texel's worth of uv motion.
+#[test]
+fn uv_scale_and_rotation_match_finite_differences() {
+    let s = textured_floor(r#", "uv_transform": { "scale": [1.3, 0.8], "rotation_deg": 20, "offset": [0.1, 0.05] }"#);
+    check_against_fd(&s, "material/floor/uv_scale", 0.002, &[0, 1]);
+    check_against_fd(&s, "material/floor/uv_rotation", 0.1, &[0]);
+}
+
+#[test]
+fn specular_constant_matches_finite_differences() {
+    let mut s = room(40, 30, 8);
+    s.camera.origin = glam::Vec3::new(0.2, 1.6, 0.4);
+    check_against_fd(&s, "material/walnut/specular", 0.02, &[0]);
 }
 
 /// A parameter that no path touches has an exactly zero gradient.

@@ -1,6 +1,8 @@
 //! Derivatives of `bsdf_eval` (f · cos_o) with respect to the material constants, in closed form.
 //! Twin of render/bsdf.rs: the same terms, differentiated by hand.
 
+use super::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
+use super::dual::{D, D3};
 use crate::render::bsdf::{fresnel_dielectric, ggx_d, ggx_g1, specular_to_eta, BsdfParams, MIN_ALPHA};
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -12,6 +14,14 @@ pub struct BsdfGrad {
     pub albedo: f32,
     /// ∂/∂roughness, the same for every channel (the specular lobe is grey).
     pub roughness: f32,
+    /// ∂/∂specular per channel (the coat's Fresnel also scales the coloured diffuse lobe).
+    pub specular: Vec3,
+}
+
+impl BsdfGrad {
+    pub fn scaled(self, k: f32) -> BsdfGrad {
+        BsdfGrad { albedo: self.albedo * k, roughness: self.roughness * k, specular: self.specular * k }
+    }
 }
 
 /// dD/dα of the GGX distribution.
@@ -40,17 +50,24 @@ pub fn bsdf_eval_grad(p: &BsdfParams, wi: Vec3, wo: Vec3) -> BsdfGrad {
     if wi.z <= 0.0 || wo.z <= 0.0 {
         return BsdfGrad::default();
     }
+    // The specular derivative runs through Fresnel and the IOR: forward mode on the dual twin of bsdf_eval.
+    let pd = BsdfParamsD {
+        albedo: D3::c(p.albedo),
+        roughness: D::c(p.roughness),
+        specular: D { v: p.specular, d: if (0.0..1.0).contains(&p.specular) { 1.0 } else { 0.0 } },
+    };
+    let specular = bsdf_eval_dual(&pd, D3::c(Vec3::Z), D3::c(wi), D3::c(wo)).d;
     let eta = specular_to_eta(p.specular);
     let f_i = fresnel_dielectric(wi.z, eta);
     let f_o = fresnel_dielectric(wo.z, eta);
     let albedo = FRAC_1_PI * (1.0 - f_i) * (1.0 - f_o) * wo.z;
     if eta <= 1.0 {
-        return BsdfGrad { albedo, roughness: 0.0 };
+        return BsdfGrad { albedo, roughness: 0.0, specular };
     }
     let r2 = p.roughness * p.roughness;
     // alpha = max(r², MIN_ALPHA): flat below the clamp.
     if r2 <= MIN_ALPHA {
-        return BsdfGrad { albedo, roughness: 0.0 };
+        return BsdfGrad { albedo, roughness: 0.0, specular };
     }
     let alpha = r2;
     let h = (wi + wo).normalize();
@@ -58,7 +75,7 @@ pub fn bsdf_eval_grad(p: &BsdfParams, wi: Vec3, wo: Vec3) -> BsdfGrad {
     let (d, gi, go) = (ggx_d(h, alpha), ggx_g1(wi, alpha), ggx_g1(wo, alpha));
     let d_alpha =
         ggx_d_dalpha(h, alpha) * gi * go + d * ggx_g1_dalpha(wi, alpha) * go + d * gi * ggx_g1_dalpha(wo, alpha);
-    BsdfGrad { albedo, roughness: d_alpha * f_h / (4.0 * wi.z) * 2.0 * p.roughness }
+    BsdfGrad { albedo, roughness: d_alpha * f_h / (4.0 * wi.z) * 2.0 * p.roughness, specular }
 }
 
 #[cfg(test)]
@@ -82,7 +99,7 @@ mod tests {
             let p = BsdfParams {
                 albedo: Vec3::new(0.2 + 0.6 * r(5), 0.5, 0.3),
                 roughness: 0.1 + 0.85 * r(6),
-                specular: 0.2 + 0.8 * r(7),
+                specular: 0.2 + 0.75 * r(7),
             };
             let g = bsdf_eval_grad(&p, wi, wo);
             let h = 1e-3;
@@ -101,6 +118,10 @@ mod tests {
             );
             assert!((fd_a.x - g.albedo).abs() <= 2e-3 * scale, "{k}: {} vs {}", fd_a.x, g.albedo);
             assert!(fd_a.y.abs() < 1e-6, "albedo x must not change channel y");
+            let fd_s = (bsdf_eval(&BsdfParams { specular: p.specular + h, ..p }, wi, wo)
+                - bsdf_eval(&BsdfParams { specular: p.specular - h, ..p }, wi, wo))
+                / (2.0 * h);
+            assert!((fd_s - g.specular).length() <= 2e-3 * scale.max(fd_s.length()), "{k}: {fd_s} vs {}", g.specular);
             checked += 1;
         }
         assert_eq!(checked, 400);

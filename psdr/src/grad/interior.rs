@@ -1,5 +1,6 @@
 //! Reverse mode (vector-Jacobian product) of the radiance image for parameters that do not move geometry:
-//! emitter radiance, material albedo and roughness constants, albedo texels. The interior term only: these
+//! emitter radiance, material albedo, roughness and specular constants, albedo texels, uv scale and rotation.
+//! The interior term only: these
 //! parameters create no discontinuities, so there is no boundary term for them.
 //!
 //! Each sample's path is recorded (`path_record`) with its local terms per vertex; a backward sweep over the
@@ -20,6 +21,7 @@ use crate::render::layout::{TextureGpu, NONE};
 use crate::render::SceneData;
 use crate::scene::{Color, RenderSettings, Scene};
 use glam::{Vec2, Vec3};
+use psdr_materials::{TextureTransform, TextureView, TransformGrad};
 use rayon::prelude::*;
 
 /// Where each differentiable quantity's gradient goes in the flat gradient vector.
@@ -32,8 +34,13 @@ pub struct GradLayout {
     emitter: Vec<Option<usize>>,
     albedo: Vec<Option<usize>>,
     roughness: Vec<Option<usize>>,
+    specular: Vec<Option<usize>>,
     /// (texture, texel index, offset) of single albedo texels.
     texels: Vec<(u32, u32, usize)>,
+    /// Per material: offsets of uv scale (2) and rotation (1) gradients, and the transform itself.
+    uv_scale: Vec<Option<usize>>,
+    uv_rotation: Vec<Option<usize>>,
+    uv_transform: Vec<TextureTransform>,
 }
 
 impl GradLayout {
@@ -56,16 +63,28 @@ impl GradLayout {
             emitter: vec![None; emitter_of_object.iter().flatten().count()],
             albedo: vec![None; scene.materials.len()],
             roughness: vec![None; scene.materials.len()],
+            specular: vec![None; scene.materials.len()],
             texels: vec![],
+            uv_scale: vec![None; scene.materials.len()],
+            uv_rotation: vec![None; scene.materials.len()],
+            uv_transform: scene
+                .materials
+                .iter()
+                .map(|m| TextureTransform {
+                    scale: [m.uv_transform.scale.x as f64, m.uv_transform.scale.y as f64],
+                    rotation_deg: m.uv_transform.rotation_deg as f64,
+                    offset: [m.uv_transform.offset.x as f64, m.uv_transform.offset.y as f64],
+                })
+                .collect(),
         };
         for p in params {
             let n = p.get(scene)?.len();
             let at = l.len;
             let unsupported = || {
                 Error::Invalid(format!(
-                    "{p}: analytic gradients cover light radiance, material albedo/roughness constants and albedo \
-                     texels (and object translation, yaw and scale through the pose gradients) so far; use --fd for \
-                     this parameter"
+                    "{p}: analytic gradients cover light radiance, material albedo/roughness/specular constants, \
+                     albedo texels, uv scale and rotation (materials without normal maps), and object translation, \
+                     yaw and scale so far; use --fd for this parameter"
                 ))
             };
             match p {
@@ -76,6 +95,19 @@ impl GradLayout {
                 ParamPath::MaterialAlbedo(name) => l.albedo[scene.material_index(name).expect("checked")] = Some(at),
                 ParamPath::MaterialRoughness(name) => {
                     l.roughness[scene.material_index(name).expect("checked")] = Some(at)
+                }
+                ParamPath::MaterialSpecular(name) => {
+                    l.specular[scene.material_index(name).expect("checked")] = Some(at)
+                }
+                ParamPath::UvScale(name) | ParamPath::UvRotation(name) => {
+                    let m = scene.material_index(name).expect("checked");
+                    if scene.materials[m].normal_map.is_some() {
+                        return Err(unsupported());
+                    }
+                    match p {
+                        ParamPath::UvScale(_) => l.uv_scale[m] = Some(at),
+                        _ => l.uv_rotation[m] = Some(at),
+                    }
                 }
                 ParamPath::MaterialTexel { material, slot: super::TextureSlot::Albedo, x, y } => {
                     let m = &scene.materials[scene.material_index(material).expect("checked")];
@@ -140,21 +172,29 @@ fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVertex], delta
         if v.emitter != NONE {
             add3(grad, l.emitter[v.emitter as usize], a * v.emission_mis);
         }
-        let (mut d_albedo, mut d_rough) = (Vec3::ZERO, Vec3::ZERO);
+        let (mut d_albedo, mut d_rough, mut d_spec) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
         if let Some(n) = &v.nee {
             add3(grad, l.emitter[n.emitter as usize], a * n.f * n.w_over_pdf);
             let via_nee = a * n.radiance * n.w_over_pdf;
             d_albedo += via_nee * n.f_grad.albedo;
             d_rough += via_nee * n.f_grad.roughness;
+            d_spec += via_nee * n.f_grad.specular;
         }
         let (beta, beta_grad) = v.next.map_or((Vec3::ZERO, BsdfGrad::default()), |c| (c.beta, c.beta_grad));
         let via_path = a * r_next;
         d_albedo += via_path * beta_grad.albedo;
         d_rough += via_path * beta_grad.roughness;
+        d_spec += via_path * beta_grad.specular;
         let m = v.material as usize;
         add3(grad, l.albedo[m], d_albedo);
         if let Some(o) = l.roughness[m] {
             grad[o] += (d_rough.x + d_rough.y + d_rough.z) as f64;
+        }
+        if let Some(o) = l.specular[m] {
+            grad[o] += (d_spec.x + d_spec.y + d_spec.z) as f64;
+        }
+        if l.uv_scale[m].is_some() || l.uv_rotation[m].is_some() {
+            uv_transform_adjoint(d, l, m, v.uv, d_albedo, d_rough.x + d_rough.y + d_rough.z, grad);
         }
         if !l.texels.is_empty() {
             let tex = d.materials[m].albedo_tex;
@@ -168,6 +208,49 @@ fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVertex], delta
             }
         }
         r_next = v.local + beta * r_next;
+    }
+}
+
+/// Chains the adjoints of the albedo and roughness read at this vertex into the material's uv transform,
+/// through the differentiable lookup of psdr-materials (proven equal to the renderer's lookup).
+fn uv_transform_adjoint(
+    d: &SceneData,
+    l: &GradLayout,
+    m: usize,
+    uvt: Vec2,
+    d_albedo: Vec3,
+    d_rough: f32,
+    grad: &mut [f64],
+) {
+    let t = &l.uv_transform[m];
+    // Back from the transformed uv the renderer recorded to the mesh uv: uv = S⁻¹ R⁻¹ (uv' − o).
+    let (s, c) = t.rotation_deg.to_radians().sin_cos();
+    let (x, y) = (uvt.x as f64 - t.offset[0], uvt.y as f64 - t.offset[1]);
+    let uv = [(c * x + s * y) / t.scale[0], (-s * x + c * y) / t.scale[1]];
+    let mat = &d.materials[m];
+    let mut g = TransformGrad::default();
+    for (tex, d_out) in
+        [(mat.albedo_tex, d_albedo.to_array().map(f64::from).to_vec()), (mat.roughness_tex, vec![d_rough as f64])]
+    {
+        if tex == NONE {
+            continue;
+        }
+        let tg = &d.textures[tex as usize];
+        let texels = &d.texels[tg.offset as usize..(tg.offset + tg.width * tg.height * tg.channels) as usize];
+        let view = TextureView {
+            width: tg.width as usize,
+            height: tg.height as usize,
+            channels: tg.channels as usize,
+            texels,
+        };
+        t.lookup_backward(&view, uv, &d_out, None, &mut g);
+    }
+    if let Some(o) = l.uv_scale[m] {
+        grad[o] += g.scale[0];
+        grad[o + 1] += g.scale[1];
+    }
+    if let Some(o) = l.uv_rotation[m] {
+        grad[o] += g.rotation_deg;
     }
 }
 

@@ -185,9 +185,7 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
             next.q = q;
             next.beta /= q;
         }
-        let scale = 1.0 / (next.pdf * next.q);
-        next.beta_grad.albedo *= scale;
-        next.beta_grad.roughness *= scale;
+        next.beta_grad = next.beta_grad.scaled(1.0 / (next.pdf * next.q));
         beta *= next.beta;
         v.next = Some(next);
         rec.vertices.push(v);
