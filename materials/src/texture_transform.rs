@@ -140,6 +140,9 @@ mod tests {
             .collect()
     }
 
+    /// A transform perturbed by ε along one field.
+    type Perturb<'a> = Box<dyn Fn(f64) -> TextureTransform + 'a>;
+
     /// Central differences of the lookup agree with the analytic derivative wherever the ±h lookups stay inside
     /// one texel cell (where the lookup is a polynomial, so FD error is O(h²) ≈ 1e-12).
     #[test]
@@ -175,7 +178,7 @@ mod tests {
                 let (tp, tm) = (f(eps), f(-eps));
                 (cell(&tp) == cell(&tm)).then(|| (loss(&tp, &texels, uv) - loss(&tm, &texels, uv)) / (2.0 * eps))
             };
-            let cases: [(f64, Box<dyn Fn(f64) -> TextureTransform>); 5] = [
+            let cases: [(f64, Perturb); 5] = [
                 (g.scale[0], Box::new(|e| TextureTransform { scale: [t.scale[0] + e, t.scale[1]], ..t })),
                 (g.scale[1], Box::new(|e| TextureTransform { scale: [t.scale[0], t.scale[1] + e], ..t })),
                 (g.rotation_deg, Box::new(|e| TextureTransform { rotation_deg: t.rotation_deg + e, ..t })),

@@ -137,22 +137,20 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
             let cos_l = if ls.two_sided { ls.n.dot(-wl).abs() } else { ls.n.dot(-wl) };
             if cos_l > 0.0 && dist > 0.0 {
                 let f = bsdf_eval(&sp.bsdf, wi, sp.to_local(wl));
-                if f != Vec3::ZERO {
-                    if unoccluded(d, sp.p, sp.ng, ls.p, ls.n) {
-                        let light_pdf = ls.pdf_area * dist2 / cos_l;
-                        let w = mis_power(light_pdf, bsdf_pdf(&sp.bsdf, wi, sp.to_local(wl)));
-                        let nee = RecordedNee {
-                            triangle: d.lights[select_light(&d.lights, fp.light_count, u_sel) as usize].triangle,
-                            dir: wl,
-                            emitter: ls.emitter,
-                            radiance: ls.radiance,
-                            w_over_pdf: w / light_pdf,
-                            f,
-                            f_grad: bsdf_eval_grad(&sp.bsdf, wi, sp.to_local(wl)),
-                        };
-                        v.local += f * ls.radiance * nee.w_over_pdf;
-                        v.nee = Some(nee);
-                    }
+                if f != Vec3::ZERO && unoccluded(d, sp.p, sp.ng, ls.p, ls.n) {
+                    let light_pdf = ls.pdf_area * dist2 / cos_l;
+                    let w = mis_power(light_pdf, bsdf_pdf(&sp.bsdf, wi, sp.to_local(wl)));
+                    let nee = RecordedNee {
+                        triangle: d.lights[select_light(&d.lights, fp.light_count, u_sel) as usize].triangle,
+                        dir: wl,
+                        emitter: ls.emitter,
+                        radiance: ls.radiance,
+                        w_over_pdf: w / light_pdf,
+                        f,
+                        f_grad: bsdf_eval_grad(&sp.bsdf, wi, sp.to_local(wl)),
+                    };
+                    v.local += f * ls.radiance * nee.w_over_pdf;
+                    v.nee = Some(nee);
                 }
             }
         }

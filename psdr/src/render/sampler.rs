@@ -144,12 +144,15 @@ mod tests {
         counts.iter().map(|&c| (c as f64 - expected).powi(2) / expected).sum()
     }
 
+    /// A named counter axis of the sampler and the draw it produces for index i.
+    type Axis = (&'static str, fn(u32) -> f32);
+
     #[test]
     fn one_dimensional_marginals_are_uniform_chi_square() {
         // 256 bins, 2^16 draws (256 expected per bin) along each counter axis: pixel, sample, dimension, seed.
         // The statistic must stay below the chi-square quantile of p = 1e-6 with 255 degrees of freedom.
         let n = 1u32 << 16;
-        let axes: [(&str, fn(u32) -> f32); 4] = [
+        let axes: [Axis; 4] = [
             ("pixel", |i| sample_1d(7, i, 3, 4)),
             ("sample", |i| sample_1d(7, 11, i, 4)),
             ("dimension", |i| sample_1d(7, 11, 3, i)),
