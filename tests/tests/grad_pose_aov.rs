@@ -59,6 +59,7 @@ fn box_mask_and_depth_match_finite_differences_for_translation_yaw_and_scale() {
         let loss = ImageLoss::Mean(output);
         check(&s, "object/box/translation", &loss, 0.01);
         check(&s, "object/box/yaw", &loss, 0.01);
+        check(&s, "object/box/rotation", &loss, 0.01);
         check(&s, "object/box/scale", &loss, 0.01);
     }
 }

@@ -96,10 +96,11 @@ fn room_with_cube(lift: f32) -> Scene {
 }
 
 #[test]
-fn object_against_background_translation_yaw_scale() {
+fn object_against_background_translation_yaw_rotation_scale() {
     let s = box_in_the_dark();
     check(&s, "object/box/translation", &mean_radiance(), 0.01, OPTS);
     check(&s, "object/box/yaw", &mean_radiance(), 0.01, OPTS);
+    check(&s, "object/box/rotation", &mean_radiance(), 0.01, OPTS);
     check(&s, "object/box/scale", &mean_radiance(), 0.01, OPTS);
 }
 

@@ -39,7 +39,7 @@ impl Default for AdOptions {
 const ADJOINT_SEED_OFFSET: u32 = 0x9e37_79b9;
 
 fn is_pose(p: &ParamPath) -> bool {
-    matches!(p, ParamPath::Translation(_) | ParamPath::Yaw(_) | ParamPath::Scale(_))
+    matches!(p, ParamPath::Translation(_) | ParamPath::Yaw(_) | ParamPath::Rotation(_) | ParamPath::Scale(_))
 }
 
 /// dLoss/dθ of `params`, in their order: radiance losses w.r.t. lights, materials (interior term) and object

@@ -15,6 +15,9 @@ pub enum PoseComponent {
     Yaw,
     /// Scale along the object's own axis 0, 1, 2.
     Scale(usize),
+    /// Component 0, 1, 2 of the rotation vector (axis times angle) of ParamPath::Rotation, about the object's
+    /// origin.
+    Rotation(usize),
 }
 
 /// The pose components a set of parameter paths asks for, with their offsets in the gradient vector.
@@ -54,6 +57,11 @@ impl PoseLayout {
                     l.entries.push((object(n)?, PoseComponent::Yaw, l.len));
                     l.len += 1;
                 }
+                ParamPath::Rotation(n) => {
+                    let o = object(n)?;
+                    (0..3).for_each(|a| l.entries.push((o, PoseComponent::Rotation(a), l.len + a)));
+                    l.len += 3;
+                }
                 ParamPath::Scale(n) => {
                     let o = object(n)?;
                     if l.scale[o as usize].min_element().abs() < 1e-12 {
@@ -64,7 +72,7 @@ impl PoseLayout {
                 }
                 _ => {
                     return Err(Error::Invalid(format!(
-                        "{p}: geometric gradients of depth and masks cover object translation, yaw and scale so far"
+                        "{p}: geometric gradients cover object translation, yaw, rotation and scale so far; use --fd"
                     )))
                 }
             }
@@ -88,7 +96,22 @@ impl PoseLayout {
                 let r = Mat3::from_quat(self.rotation[o]);
                 r * Mat3::from_diagonal(Vec3::AXES[a] / self.scale[o][a]) * r.transpose()
             }
+            PoseComponent::Rotation(a) => skew(self.angular_velocity(o, a)),
         }
+    }
+
+    /// World angular velocity of R = exp([r]×) per unit change of r_a: the left Jacobian of SO(3) times e_a,
+    /// J(r) = I + (1 − cos θ)/θ² [r]× + (θ − sin θ)/θ³ [r]×².
+    fn angular_velocity(&self, o: usize, a: usize) -> Vec3 {
+        let r = self.rotation[o].to_scaled_axis();
+        let t = r.length();
+        let (c1, c2) = if t < 1e-4 {
+            (0.5 - t * t / 24.0, 1.0 / 6.0 - t * t / 120.0)
+        } else {
+            ((1.0 - t.cos()) / (t * t), (t - t.sin()) / (t * t * t))
+        };
+        let e = Vec3::AXES[a];
+        e + r.cross(e) * c1 + r.cross(r.cross(e)) * c2
     }
 
     /// ∂n/∂θ of a unit normal carried by the motion (normals transform with the inverse transpose).
@@ -108,6 +131,62 @@ impl PoseLayout {
             PoseComponent::Scale(a) => {
                 let local = self.rotation[o].inverse() * (x - self.translation[o]);
                 self.rotation[o] * (Vec3::AXES[a] * (local[a] / self.scale[o][a]))
+            }
+            PoseComponent::Rotation(a) => self.angular_velocity(o, a).cross(x - self.translation[o]),
+        }
+    }
+}
+
+/// The matrix of v ↦ w × v.
+fn skew(w: Vec3) -> Mat3 {
+    Mat3::from_cols(Vec3::new(0.0, w.z, -w.y), Vec3::new(-w.z, 0.0, w.x), Vec3::new(w.y, -w.x, 0.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Velocities of every component match central differences of the posed point (set the parameter through
+    /// its path, move a fixed object-space point), and normal velocities match those of transformed normals.
+    #[test]
+    fn velocities_match_finite_differences_of_the_pose() {
+        use crate::scene::{Camera, Object, Pose, RenderSettings};
+        let pose = Pose {
+            translation: Vec3::new(0.3, -0.2, 1.0),
+            rotation: Quat::from_scaled_axis(Vec3::new(0.4, -0.7, 0.2)),
+            scale: Vec3::new(1.2, 0.7, 1.5),
+        };
+        let object = Object { name: "o".into(), parts: vec![], pose, emitter: None };
+        let mut scene = Scene {
+            camera: Camera::look_at(Vec3::Z, Vec3::ZERO, Vec3::Y, 40.0, 4, 4),
+            settings: RenderSettings::default(),
+            materials: vec![],
+            textures: vec![],
+            objects: vec![object],
+            source: None,
+        };
+        let (x_obj, n_obj) = (Vec3::new(0.2, 0.5, -0.3), Vec3::new(0.3, 0.8, -0.2).normalize());
+        let world = |s: &Scene| s.objects[0].pose.matrix().transform_point3(x_obj);
+        let normal = |s: &Scene| (s.objects[0].pose.normal_matrix() * n_obj).normalize();
+        for path in ["object/o/translation", "object/o/yaw", "object/o/rotation", "object/o/scale"] {
+            let p: ParamPath = path.parse().unwrap();
+            let layout = PoseLayout::new(&scene, std::slice::from_ref(&p)).unwrap();
+            let value = p.get(&scene).unwrap();
+            for (k, &(o, c, _)) in layout.entries.iter().enumerate() {
+                let h = 1e-3;
+                let at = |delta: f32, s: &mut Scene| {
+                    let mut v = value.clone();
+                    v[k] += delta;
+                    p.set(s, &v).unwrap();
+                    (world(s), normal(s))
+                };
+                let ((xp, np), (xm, nm)) = (at(h, &mut scene), at(-h, &mut scene));
+                p.set(&mut scene, &value).unwrap();
+                let x = world(&scene);
+                let (fd_x, fd_n) = ((xp - xm) / (2.0 * h), (np - nm) / (2.0 * h));
+                let (u, dn) = (layout.velocity(o, c, x), layout.normal_velocity(o, c, normal(&scene)));
+                assert!((u - fd_x).length() < 2e-3 * (1.0 + fd_x.length()), "{path}[{k}]: {u} vs FD {fd_x}");
+                assert!((dn - fd_n).length() < 2e-3 * (1.0 + fd_n.length()), "{path}[{k}] normal: {dn} vs FD {fd_n}");
             }
         }
     }
