@@ -1,8 +1,10 @@
 //! One interface over the CPU reference and the Vulkan backend, so every stage runs on either.
 
 mod cpu_backend;
+mod vk_backend;
 
 pub use cpu_backend::CpuBackend;
+pub use vk_backend::{layout_check_spirv, VkBackend};
 
 use crate::error::{Error, Result};
 use crate::render::{Frame, SceneData};
@@ -21,6 +23,8 @@ pub trait Backend {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BackendKind {
     Cpu,
+    /// Vulkan compute (any device; `PSDR_VK_DEVICE` picks one by name).
+    Vk,
 }
 
 impl std::str::FromStr for BackendKind {
@@ -28,7 +32,8 @@ impl std::str::FromStr for BackendKind {
     fn from_str(s: &str) -> std::result::Result<Self, String> {
         match s {
             "cpu" => Ok(BackendKind::Cpu),
-            _ => Err(format!("unknown backend '{s}' (cpu)")),
+            "vk" | "vulkan" => Ok(BackendKind::Vk),
+            _ => Err(format!("unknown backend '{s}' (cpu, vk)")),
         }
     }
 }
@@ -36,6 +41,7 @@ impl std::str::FromStr for BackendKind {
 pub fn create_backend(kind: BackendKind) -> Result<Box<dyn Backend>> {
     match kind {
         BackendKind::Cpu => Ok(Box::new(CpuBackend)),
+        BackendKind::Vk => Ok(Box::new(VkBackend::new(None)?)),
     }
 }
 

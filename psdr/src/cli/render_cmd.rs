@@ -1,4 +1,4 @@
-//! `psdr render SCENE -o OUT.exr [--spp N] [--seed S] [--aov depth,id,mask,normal,albedo] [--backend cpu]`
+//! `psdr render SCENE -o OUT.exr [--spp N] [--seed S] [--aov depth,id,mask,normal,albedo] [--backend cpu|vk]`
 
 use crate::backend::{create_backend, BackendKind};
 use crate::output::{write_frame, Aov};
@@ -52,9 +52,13 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let build_s = t_build.elapsed().as_secs_f64();
     let mut backend = create_backend(a.backend)?;
     let bar = if a.quiet { ProgressBar::hidden() } else { ProgressBar::new(scene.camera.height as u64) };
-    bar.set_style(ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} rows").unwrap());
+    bar.set_style(ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len}").unwrap());
     let t = Instant::now();
-    let frame = backend.render(&data, &scene.settings, &|done, _| bar.set_position(done as u64))?;
+    // Units are the backend's own (rows on the CPU, sample passes on the GPU).
+    let frame = backend.render(&data, &scene.settings, &|done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64)
+    })?;
     let secs = t.elapsed().as_secs_f64();
     bar.finish_and_clear();
     if !frame.is_finite() {
