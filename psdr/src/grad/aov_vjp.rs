@@ -6,8 +6,9 @@
 //! ε pixels apart, and V = ∂y/∂θ is the image velocity of the edge point. f⁻ is the side the normal n points
 //! away from: when the edge moves along +n, the f⁻ region grows.
 
+use super::check_adjoint;
 use super::pose_velocity::PoseLayout;
-use super::primary_edges::{project_velocity, PrimaryEdges};
+use super::primary_edges::{primary_boundary, PrimaryEdges};
 use super::Output;
 use crate::error::{Error, Result};
 use crate::render::bvh::trace_closest;
@@ -18,14 +19,6 @@ use crate::render::SceneData;
 use crate::scene::{RenderSettings, Scene};
 use glam::Vec3;
 use rayon::prelude::*;
-
-/// Offset of the two side rays from the edge, in pixels: far below a pixel, far above f32 rounding of
-/// pixel coordinates (~1e-5 at 512 px).
-const SIDE_EPS: f32 = 1e-3;
-/// Seed tweak separating edge samples from pixel samples.
-const EDGE_SEED: u32 = 0x6a09_e667;
-/// Edge samples per parallel chunk (results are reduced in chunk order, so thread count does not matter).
-const CHUNK: u32 = 1024;
 
 /// The value an AOV takes along the camera ray through image point (x, y), and what it hit.
 fn aov_along(d: &SceneData, output: &Output, x: f32, y: f32) -> f32 {
@@ -54,12 +47,7 @@ pub fn aov_vjp(
     if matches!(output, Output::Radiance) {
         return Err(Error::Invalid("aov_vjp differentiates depth and masks; radiance has its own adjoint".into()));
     }
-    if adjoint.len() != w * h {
-        return Err(Error::Invalid(format!("adjoint image has {} values, expected {}", adjoint.len(), w * h)));
-    }
-    if let Some(i) = adjoint.iter().position(|v| !v.is_finite()) {
-        return Err(Error::Invalid(format!("adjoint image value {i} is not finite")));
-    }
+    check_adjoint(adjoint, w * h)?;
     let mut grad = vec![0.0f64; pose.len];
     if matches!(output, Output::Depth) {
         for row in depth_interior(d, settings, pose, adjoint) {
@@ -115,7 +103,7 @@ fn depth_interior(d: &SceneData, settings: &RenderSettings, pose: &PoseLayout, a
         .collect()
 }
 
-/// Boundary term: one gradient vector per chunk of edge samples.
+/// Boundary term: silhouettes only (depth and masks are continuous across creases).
 fn boundary(
     scene: &Scene,
     d: &SceneData,
@@ -126,42 +114,7 @@ fn boundary(
     edge_samples: u32,
 ) -> Vec<Vec<f64>> {
     let edges = PrimaryEdges::build(scene, &d.camera, false, |o| pose.moves(o));
-    if edges.edges.is_empty() || edge_samples == 0 {
-        return vec![];
-    }
-    let (w, h) = (d.camera.width as f32, d.camera.height as f32);
-    let chunks = edge_samples.div_ceil(CHUNK);
-    (0..chunks)
-        .into_par_iter()
-        .map(|c| {
-            let mut g = vec![0.0f64; pose.len];
-            for k in c * CHUNK..((c + 1) * CHUNK).min(edge_samples) {
-                let s = Sampler { seed: settings.seed ^ EDGE_SEED, pixel: k, sample: 0 };
-                let Some(es) = edges.sample(&d.camera, s.get(0), s.get(1)) else { continue };
-                let [x, y] = es.y;
-                if !(x >= 0.0 && y >= 0.0 && x < w && y < h) {
-                    continue;
-                }
-                let delta = adjoint[(y as u32 * d.camera.width + x as u32) as usize];
-                if delta == 0.0 {
-                    continue;
-                }
-                let [nx, ny] = es.n;
-                let f_minus = aov_along(d, output, x - nx * SIDE_EPS, y - ny * SIDE_EPS);
-                let f_plus = aov_along(d, output, x + nx * SIDE_EPS, y + ny * SIDE_EPS);
-                if f_minus == f_plus {
-                    continue;
-                }
-                let object = edges.edges[es.edge].object;
-                let weight = delta * (f_minus - f_plus) / (es.pdf * edge_samples as f32);
-                for &(o, comp, at) in &pose.entries {
-                    if o == object {
-                        let v = project_velocity(&d.camera, es.x, pose.velocity(o, comp, es.x));
-                        g[at] += (weight * (v[0] * nx + v[1] * ny)) as f64;
-                    }
-                }
-            }
-            g
-        })
-        .collect()
+    primary_boundary(d, settings.seed, pose, &edges, adjoint, 1, edge_samples, |x, y, _| {
+        Vec3::new(aov_along(d, output, x, y), 0.0, 0.0)
+    })
 }

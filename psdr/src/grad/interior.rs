@@ -13,6 +13,7 @@
 //! independent of spp; rows are reduced in order, so the result is identical on any thread count.
 
 use super::bsdf_grad::BsdfGrad;
+use super::check_adjoint;
 use super::path_record::{record_path, PathRecord, RecordedVertex};
 use super::ParamPath;
 use crate::error::{Error, Result};
@@ -131,12 +132,7 @@ pub fn radiance_vjp(
     adjoint: &[f32],
 ) -> Result<Vec<f64>> {
     let (w, h) = (d.camera.width as usize, d.camera.height as usize);
-    if adjoint.len() != w * h * 3 {
-        return Err(Error::Invalid(format!("adjoint image has {} values, expected {}", adjoint.len(), w * h * 3)));
-    }
-    if let Some(i) = adjoint.iter().position(|v| !v.is_finite()) {
-        return Err(Error::Invalid(format!("adjoint image value {i} is not finite")));
-    }
+    check_adjoint(adjoint, w * h * 3)?;
     let fp = frame_params(d, settings);
     let rows: Vec<Vec<f64>> = (0..h)
         .into_par_iter()

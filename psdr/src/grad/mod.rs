@@ -29,3 +29,14 @@ pub use param_path::{ParamPath, TextureSlot};
 pub use pose_velocity::{PoseComponent, PoseLayout};
 pub use primary_edges::{project, project_velocity, PrimaryEdges};
 pub use radiance_pose_vjp::{radiance_pose_vjp, BoundarySamples};
+
+/// Refuses an adjoint image of the wrong size or with non-finite values (they would poison every gradient).
+pub(crate) fn check_adjoint(adjoint: &[f32], expected: usize) -> crate::Result<()> {
+    if adjoint.len() != expected {
+        return Err(crate::Error::Invalid(format!("adjoint image has {} values, expected {expected}", adjoint.len())));
+    }
+    match adjoint.iter().position(|v| !v.is_finite()) {
+        Some(i) => Err(crate::Error::Invalid(format!("adjoint image value {i} is not finite"))),
+        None => Ok(()),
+    }
+}

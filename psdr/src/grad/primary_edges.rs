@@ -6,9 +6,13 @@
 //! there (`mesh_edges`). Edges hidden behind other geometry are kept: the two-sided evaluation sees no jump.
 
 use super::mesh_edges::mesh_edges;
+use super::pose_velocity::PoseLayout;
 use crate::render::layout::CameraGpu;
+use crate::render::sampler::Sampler;
+use crate::render::SceneData;
 use crate::scene::Scene;
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// A silhouette edge clipped to the front of the camera.
 #[derive(Clone, Copy, Debug)]
@@ -156,16 +160,7 @@ mod tests {
 
     fn camera() -> CameraGpu {
         let c = Camera::look_at(Vec3::new(0.3, 1.45, 2.3), Vec3::new(-0.1, 0.8, -1.5), Vec3::Y, 60.0, 256, 192);
-        CameraGpu {
-            origin: c.origin.to_array(),
-            tan_half_fov: c.tan_half_fov(),
-            forward: c.forward.to_array(),
-            aspect: c.aspect(),
-            right: c.right().to_array(),
-            width: c.width,
-            up: c.up.to_array(),
-            height: c.height,
-        }
+        crate::render::scene_data::camera_gpu(&c)
     }
 
     /// `project` inverts `camera_ray` (to f32 rounding of pixel coordinates).
@@ -193,4 +188,73 @@ mod tests {
             }
         }
     }
+}
+
+/// Offset of the two side rays from a silhouette, in pixels: far below a pixel, far above f32 rounding of pixel
+/// coordinates (~1e-5 at 512 px).
+pub const SIDE_EPS: f32 = 1e-3;
+/// Seed tweak separating edge samples from pixel samples.
+const EDGE_SEED: u32 = 0x6a09_e667;
+/// Edge samples per parallel chunk (chunks are reduced in order, so the thread count does not matter).
+const CHUNK: u32 = 256;
+
+/// The primary boundary term of any per-pixel output with `channels` values per pixel:
+///     Σ_samples adjoint(pixel) · [f(y − εn) − f(y + εn)] (V·n) / pdf / N
+/// over `edge_samples` points y sampled on `edges`. `side(x, y, sampler)` evaluates the output along the camera
+/// ray through image point (x, y); both sides of one sample get the same sampler, so noise cancels in the
+/// difference. Returns one gradient vector per chunk of samples, to be summed in order.
+pub fn primary_boundary<F>(
+    d: &SceneData,
+    seed: u32,
+    pose: &PoseLayout,
+    edges: &PrimaryEdges,
+    adjoint: &[f32],
+    channels: usize,
+    edge_samples: u32,
+    side: F,
+) -> Vec<Vec<f64>>
+where
+    F: Fn(f32, f32, &Sampler) -> Vec3 + Sync,
+{
+    if edges.edges.is_empty() || edge_samples == 0 {
+        return vec![];
+    }
+    let (w, h) = (d.camera.width as f32, d.camera.height as f32);
+    (0..edge_samples.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut g = vec![0.0f64; pose.len];
+            for k in c * CHUNK..((c + 1) * CHUNK).min(edge_samples) {
+                let s = Sampler { seed: seed ^ EDGE_SEED, pixel: k, sample: 0 };
+                let Some(es) = edges.sample(&d.camera, s.get(0), s.get(1)) else { continue };
+                let [x, y] = es.y;
+                if !(x >= 0.0 && y >= 0.0 && x < w && y < h) {
+                    continue;
+                }
+                let i = (y as u32 * d.camera.width + x as u32) as usize * channels;
+                let mut delta = Vec3::ZERO;
+                for (ch, a) in adjoint[i..i + channels].iter().enumerate() {
+                    delta[ch] = *a;
+                }
+                if delta == Vec3::ZERO {
+                    continue;
+                }
+                let [nx, ny] = es.n;
+                let jump =
+                    side(x - nx * SIDE_EPS, y - ny * SIDE_EPS, &s) - side(x + nx * SIDE_EPS, y + ny * SIDE_EPS, &s);
+                if jump == Vec3::ZERO {
+                    continue;
+                }
+                let object = edges.edges[es.edge].object;
+                let weight = delta.dot(jump) / (es.pdf * edge_samples as f32);
+                for &(o, comp, at) in &pose.entries {
+                    if o == object {
+                        let v = project_velocity(&d.camera, es.x, pose.velocity(o, comp, es.x));
+                        g[at] += (weight * (v[0] * nx + v[1] * ny)) as f64;
+                    }
+                }
+            }
+            g
+        })
+        .collect()
 }

@@ -169,7 +169,11 @@ impl SceneData {
 }
 
 fn camera(scene: &Scene) -> CameraGpu {
-    let c = &scene.camera;
+    camera_gpu(&scene.camera)
+}
+
+/// The camera as the kernels see it.
+pub fn camera_gpu(c: &crate::scene::Camera) -> CameraGpu {
     CameraGpu {
         origin: c.origin.to_array(),
         tan_half_fov: c.tan_half_fov(),
