@@ -12,7 +12,7 @@ pub fn compile_shaders(shader_dir: &std::path::Path) {
     println!("cargo:rerun-if-env-changed=GLSLANG_VALIDATOR");
     println!("cargo:rerun-if-changed={}", shader_dir.display());
 
-    let mut shaders: Vec<PathBuf> = std::fs::read_dir(&shader_dir)
+    let mut shaders: Vec<PathBuf> = std::fs::read_dir(shader_dir)
         .unwrap_or_else(|e| panic!("cannot read {}: {e}", shader_dir.display()))
         .map(|entry| entry.expect("readable directory entry").path())
         .filter(|p| p.extension().is_some_and(|e| e == "comp" || e == "glsl"))
