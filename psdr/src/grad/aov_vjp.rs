@@ -8,7 +8,7 @@
 
 use super::check_adjoint;
 use super::pose_velocity::PoseLayout;
-use super::primary_edges::{primary_boundary, PrimaryEdges};
+use super::primary_edges::{primary_boundary, PixelAdjoint, PrimaryEdges};
 use super::Output;
 use crate::error::{Error, Result};
 use crate::render::bvh::trace_closest;
@@ -114,7 +114,13 @@ fn boundary(
     edge_samples: u32,
 ) -> Vec<Vec<f64>> {
     let edges = PrimaryEdges::build(scene, &d.camera, false, |o| pose.moves(o));
-    primary_boundary(d, settings.seed, pose, &edges, adjoint, 1, edge_samples, |x, y, _| {
-        Vec3::new(aov_along(d, output, x, y), 0.0, 0.0)
-    })
+    primary_boundary(
+        d,
+        settings.seed,
+        pose,
+        &edges,
+        PixelAdjoint { values: adjoint, channels: 1 },
+        edge_samples,
+        |x, y, _| Vec3::new(aov_along(d, output, x, y), 0.0, 0.0),
+    )
 }

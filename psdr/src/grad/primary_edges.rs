@@ -152,6 +152,81 @@ fn point_on_edge(cam: &CameraGpu, e: &ImageEdge, y: [f32; 2]) -> Option<Vec3> {
     Some(e.a + ab * t)
 }
 
+/// Offset of the two side rays from a silhouette, in pixels: far below a pixel, far above f32 rounding of pixel
+/// coordinates (~1e-5 at 512 px).
+pub const SIDE_EPS: f32 = 1e-3;
+/// Seed tweak separating edge samples from pixel samples.
+const EDGE_SEED: u32 = 0x6a09_e667;
+/// Edge samples per parallel chunk (chunks are reduced in order, so the thread count does not matter).
+const CHUNK: u32 = 256;
+
+/// dLoss/d(output) per pixel, `channels` (1 or 3) values per pixel.
+#[derive(Clone, Copy)]
+pub struct PixelAdjoint<'a> {
+    pub values: &'a [f32],
+    pub channels: usize,
+}
+
+/// The primary boundary term of any per-pixel output:
+///     Σ_samples adjoint(pixel) · [f(y − εn) − f(y + εn)] (V·n) / pdf / N
+/// over `edge_samples` points y sampled on `edges`. `side(x, y, sampler)` evaluates the output along the camera
+/// ray through image point (x, y); both sides of one sample get the same sampler, so noise cancels in the
+/// difference. Returns one gradient vector per chunk of samples, to be summed in order.
+pub fn primary_boundary<F>(
+    d: &SceneData,
+    seed: u32,
+    pose: &PoseLayout,
+    edges: &PrimaryEdges,
+    adjoint: PixelAdjoint,
+    edge_samples: u32,
+    side: F,
+) -> Vec<Vec<f64>>
+where
+    F: Fn(f32, f32, &Sampler) -> Vec3 + Sync,
+{
+    if edges.edges.is_empty() || edge_samples == 0 {
+        return vec![];
+    }
+    let (w, h) = (d.camera.width as f32, d.camera.height as f32);
+    (0..edge_samples.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut g = vec![0.0f64; pose.len];
+            for k in c * CHUNK..((c + 1) * CHUNK).min(edge_samples) {
+                let s = Sampler { seed: seed ^ EDGE_SEED, pixel: k, sample: 0 };
+                let Some(es) = edges.sample(&d.camera, s.get(0), s.get(1)) else { continue };
+                let [x, y] = es.y;
+                if !(x >= 0.0 && y >= 0.0 && x < w && y < h) {
+                    continue;
+                }
+                let i = (y as u32 * d.camera.width + x as u32) as usize * adjoint.channels;
+                let mut delta = Vec3::ZERO;
+                for (ch, a) in adjoint.values[i..i + adjoint.channels].iter().enumerate() {
+                    delta[ch] = *a;
+                }
+                if delta == Vec3::ZERO {
+                    continue;
+                }
+                let [nx, ny] = es.n;
+                let jump =
+                    side(x - nx * SIDE_EPS, y - ny * SIDE_EPS, &s) - side(x + nx * SIDE_EPS, y + ny * SIDE_EPS, &s);
+                if jump == Vec3::ZERO {
+                    continue;
+                }
+                let object = edges.edges[es.edge].object;
+                let weight = delta.dot(jump) / (es.pdf * edge_samples as f32);
+                for &(o, comp, at) in &pose.entries {
+                    if o == object {
+                        let v = project_velocity(&d.camera, es.x, pose.velocity(o, comp, es.x));
+                        g[at] += (weight * (v[0] * nx + v[1] * ny)) as f64;
+                    }
+                }
+            }
+            g
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -188,73 +263,4 @@ mod tests {
             }
         }
     }
-}
-
-/// Offset of the two side rays from a silhouette, in pixels: far below a pixel, far above f32 rounding of pixel
-/// coordinates (~1e-5 at 512 px).
-pub const SIDE_EPS: f32 = 1e-3;
-/// Seed tweak separating edge samples from pixel samples.
-const EDGE_SEED: u32 = 0x6a09_e667;
-/// Edge samples per parallel chunk (chunks are reduced in order, so the thread count does not matter).
-const CHUNK: u32 = 256;
-
-/// The primary boundary term of any per-pixel output with `channels` values per pixel:
-///     Σ_samples adjoint(pixel) · [f(y − εn) − f(y + εn)] (V·n) / pdf / N
-/// over `edge_samples` points y sampled on `edges`. `side(x, y, sampler)` evaluates the output along the camera
-/// ray through image point (x, y); both sides of one sample get the same sampler, so noise cancels in the
-/// difference. Returns one gradient vector per chunk of samples, to be summed in order.
-pub fn primary_boundary<F>(
-    d: &SceneData,
-    seed: u32,
-    pose: &PoseLayout,
-    edges: &PrimaryEdges,
-    adjoint: &[f32],
-    channels: usize,
-    edge_samples: u32,
-    side: F,
-) -> Vec<Vec<f64>>
-where
-    F: Fn(f32, f32, &Sampler) -> Vec3 + Sync,
-{
-    if edges.edges.is_empty() || edge_samples == 0 {
-        return vec![];
-    }
-    let (w, h) = (d.camera.width as f32, d.camera.height as f32);
-    (0..edge_samples.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let mut g = vec![0.0f64; pose.len];
-            for k in c * CHUNK..((c + 1) * CHUNK).min(edge_samples) {
-                let s = Sampler { seed: seed ^ EDGE_SEED, pixel: k, sample: 0 };
-                let Some(es) = edges.sample(&d.camera, s.get(0), s.get(1)) else { continue };
-                let [x, y] = es.y;
-                if !(x >= 0.0 && y >= 0.0 && x < w && y < h) {
-                    continue;
-                }
-                let i = (y as u32 * d.camera.width + x as u32) as usize * channels;
-                let mut delta = Vec3::ZERO;
-                for (ch, a) in adjoint[i..i + channels].iter().enumerate() {
-                    delta[ch] = *a;
-                }
-                if delta == Vec3::ZERO {
-                    continue;
-                }
-                let [nx, ny] = es.n;
-                let jump =
-                    side(x - nx * SIDE_EPS, y - ny * SIDE_EPS, &s) - side(x + nx * SIDE_EPS, y + ny * SIDE_EPS, &s);
-                if jump == Vec3::ZERO {
-                    continue;
-                }
-                let object = edges.edges[es.edge].object;
-                let weight = delta.dot(jump) / (es.pdf * edge_samples as f32);
-                for &(o, comp, at) in &pose.entries {
-                    if o == object {
-                        let v = project_velocity(&d.camera, es.x, pose.velocity(o, comp, es.x));
-                        g[at] += (weight * (v[0] * nx + v[1] * ny)) as f64;
-                    }
-                }
-            }
-            g
-        })
-        .collect()
 }

@@ -7,7 +7,7 @@ use super::check_adjoint;
 use super::geometry_interior::{path_touches, replay_radiance, Tangent};
 use super::path_record::{record_from, record_path, PathRecord};
 use super::pose_velocity::PoseLayout;
-use super::primary_edges::{primary_boundary, PrimaryEdges};
+use super::primary_edges::{primary_boundary, PixelAdjoint, PrimaryEdges};
 use super::secondary_edges::{secondary_boundary, SecondaryEdges, SecondaryPath};
 use crate::error::{Error, Result};
 use crate::render::camera::camera_ray;
@@ -110,9 +110,17 @@ fn radiance_primary_boundary(
     let edges = PrimaryEdges::build(scene, &d.camera, true, |o| pose.moves(o));
     let fp = frame_params(d, settings);
     let origin = Vec3::from(d.camera.origin);
-    primary_boundary(d, settings.seed, pose, &edges, adjoint, 3, edge_samples, |x, y, s| {
-        let mut rec = PathRecord::default();
-        record_from(d, &fp, s, origin, camera_ray(&d.camera, x, y), &mut rec);
-        rec.radiance()
-    })
+    primary_boundary(
+        d,
+        settings.seed,
+        pose,
+        &edges,
+        PixelAdjoint { values: adjoint, channels: 3 },
+        edge_samples,
+        |x, y, s| {
+            let mut rec = PathRecord::default();
+            record_from(d, &fp, s, origin, camera_ray(&d.camera, x, y), &mut rec);
+            rec.radiance()
+        },
+    )
 }
