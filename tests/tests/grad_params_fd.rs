@@ -95,3 +95,29 @@ fn finite_differences_are_zero_for_an_unused_parameter() {
     let fd = central_difference(&s, &p, &ImageLoss::Mean(Output::Radiance), &opts, &mut CpuBackend).unwrap();
     assert_eq!(fd.mean, vec![0.0]);
 }
+
+/// A scene file can mark the parameters that require gradients; unknown ones are refused naming the field.
+#[test]
+fn scene_files_mark_parameters_that_require_gradients() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json");
+    let mut json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let dir = std::env::temp_dir().join(format!("psdr_requires_grad_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // Asset paths are relative to the example's folder: point them back there.
+    let room_dir = std::path::Path::new(path).parent().unwrap().canonicalize().unwrap();
+    let write = |json: &serde_json::Value| {
+        let text = json.to_string().replace("\"textures/", &format!("\"{}/textures/", room_dir.display()));
+        let text = text.replace("\"../models/", &format!("\"{}/../models/", room_dir.display()));
+        let p = dir.join("scene.json");
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    json["requires_grad"] = serde_json::json!(["object/table/translation", "material/walnut/roughness"]);
+    let s = load_scene(&write(&json)).unwrap();
+    let names: Vec<String> = s.requires_grad.iter().map(|p| p.to_string()).collect();
+    assert_eq!(names, ["object/table/translation", "material/walnut/roughness"]);
+    json["requires_grad"] = serde_json::json!(["object/table/translation", "object/tabel/yaw"]);
+    let e = load_scene(&write(&json)).unwrap_err().to_string();
+    assert!(e.contains("requires_grad[1]") && e.contains("no object named 'tabel'"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -14,8 +14,9 @@ pub struct GradArgs {
     /// Scene file (JSON).
     scene: PathBuf,
     /// Parameter path, e.g. object/table/translation, material/walnut/albedo, light/ceiling_light/radiance.
+    /// Default: every path in the scene's "requires_grad" list.
     #[arg(long)]
-    param: ParamPath,
+    param: Option<ParamPath>,
     /// `mean` (mean radiance) or `l2-to` (mean squared difference to --target).
     #[arg(long, default_value = "mean")]
     loss: String,
@@ -68,49 +69,57 @@ pub fn run(a: GradArgs) -> anyhow::Result<()> {
         ("mean", Some(_)) => bail!("--target is only used with --loss l2-to"),
         (other, _) => bail!("unknown loss '{other}' (mean, l2-to)"),
     };
-    let value = a.param.get(&scene)?;
-    println!("{} = {:?}", a.param, value);
-    let mut backend = create_backend(a.backend)?;
-    let components: Vec<usize> = if a.component.is_empty() { (0..value.len()).collect() } else { a.component.clone() };
-    let t = Instant::now();
-    let ad_opts = AdOptions { replicas: a.replicas, edge_samples: a.sppe, secondary_edge_samples: a.sppse };
-    let ad = analytic_gradient(&scene, std::slice::from_ref(&a.param), &loss, &ad_opts, backend.as_mut());
-    let ad_s = t.elapsed().as_secs_f64();
-    let fd = match a.fd {
-        Some(step) => {
-            let t = Instant::now();
-            let opts = FdOptions { step, replicas: a.replicas, components: components.clone() };
-            Some((central_difference(&scene, &a.param, &loss, &opts, backend.as_mut())?, t.elapsed().as_secs_f64()))
-        }
-        None => None,
+    let params = match &a.param {
+        Some(p) => vec![p.clone()],
+        None if !scene.requires_grad.is_empty() => scene.requires_grad.clone(),
+        None => bail!("name a parameter with --param, or list them in the scene's \"requires_grad\""),
     };
-    if let (Err(e), None) = (&ad, &fd) {
-        anyhow::bail!("{e}");
-    }
-    for (k, &c) in components.iter().enumerate() {
-        let mut line = format!("d loss / d {}[{c}]", a.param);
+    let mut backend = create_backend(a.backend)?;
+    for param in &params {
+        let value = param.get(&scene)?;
+        println!("{param} = {value:?}");
+        let components: Vec<usize> =
+            if a.component.is_empty() { (0..value.len()).collect() } else { a.component.clone() };
+        let t = Instant::now();
+        let ad_opts = AdOptions { replicas: a.replicas, edge_samples: a.sppe, secondary_edge_samples: a.sppse };
+        let ad = analytic_gradient(&scene, std::slice::from_ref(param), &loss, &ad_opts, backend.as_mut());
+        let ad_s = t.elapsed().as_secs_f64();
+        let fd = match a.fd {
+            Some(step) => {
+                let t = Instant::now();
+                let opts = FdOptions { step, replicas: a.replicas, components: components.clone() };
+                Some((central_difference(&scene, param, &loss, &opts, backend.as_mut())?, t.elapsed().as_secs_f64()))
+            }
+            None => None,
+        };
+        if let (Err(e), None) = (&ad, &fd) {
+            anyhow::bail!("{e}");
+        }
+        for (k, &c) in components.iter().enumerate() {
+            let mut line = format!("d loss / d {param}[{c}]");
+            match &ad {
+                Ok(g) if c < g.mean.len() => line += &format!("  AD {:+.6e} ± {:.2e}", g.mean[c], g.std_err[c]),
+                Ok(_) => anyhow::bail!("{param}: component {c} does not exist"),
+                Err(_) => line += "  AD n/a",
+            }
+            if let Some((f, _)) = &fd {
+                line += &format!("  FD {:+.6e} ± {:.2e}", f.mean[k], f.std_err[k]);
+            }
+            println!("{line}   (± 1 standard error over {} seeds)", a.replicas);
+        }
+        let (w, h, spp) = (scene.camera.width, scene.camera.height, scene.settings.spp);
         match &ad {
-            Ok(g) if c < g.mean.len() => line += &format!("  AD {:+.6e} ± {:.2e}", g.mean[c], g.std_err[c]),
-            Ok(_) => anyhow::bail!("{}: component {c} does not exist", a.param),
-            Err(_) => line += "  AD n/a",
+            Ok(_) => {
+                println!(
+                    "AD: {w}x{h} at {spp} spp, sppe {}, sppse {}, {} replicas, {ad_s:.2} s (CPU)",
+                    a.sppe, a.sppse, a.replicas
+                )
+            }
+            Err(e) => println!("AD: {e}"),
         }
-        if let Some((f, _)) = &fd {
-            line += &format!("  FD {:+.6e} ± {:.2e}", f.mean[k], f.std_err[k]);
+        if let Some((f, secs)) = &fd {
+            println!("FD: {} renders at {spp} spp on {} in {secs:.2} s", f.renders, backend.name());
         }
-        println!("{line}   (± 1 standard error over {} seeds)", a.replicas);
-    }
-    let (w, h, spp) = (scene.camera.width, scene.camera.height, scene.settings.spp);
-    match &ad {
-        Ok(_) => {
-            println!(
-            "AD: {w}x{h} at {spp} spp, sppe {}, sppse {}, {} replicas, {ad_s:.2} s (CPU)",
-            a.sppe, a.sppse, a.replicas
-        )
-        }
-        Err(e) => println!("AD: {e}"),
-    }
-    if let Some((f, secs)) = &fd {
-        println!("FD: {} renders at {spp} spp on {} in {secs:.2} s", f.renders, backend.name());
     }
     Ok(())
 }

@@ -164,6 +164,7 @@ mod tests {
             textures: vec![],
             objects: vec![object],
             source: None,
+            requires_grad: vec![],
         };
         let (x_obj, n_obj) = (Vec3::new(0.2, 0.5, -0.3), Vec3::new(0.3, 0.8, -0.2).normalize());
         let world = |s: &Scene| s.objects[0].pose.matrix().transform_point3(x_obj);

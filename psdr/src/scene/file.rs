@@ -19,6 +19,10 @@ pub struct SceneFile {
     #[serde(default)]
     pub materials: Vec<MaterialFile>,
     pub shapes: Vec<ShapeFile>,
+    /// Parameter paths that require gradients (e.g. "object/sofa/translation"); `psdr grad` and the
+    /// optimisation stages differentiate these when no parameter is named explicitly.
+    #[serde(default)]
+    pub requires_grad: Vec<String>,
 }
 
 #[derive(Deserialize, Serialize, Debug, Clone, Default)]

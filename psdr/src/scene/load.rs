@@ -71,7 +71,23 @@ impl Loader<'_> {
             }
             objects.push(self.shape(s, &field, &mut materials)?);
         }
-        Ok(Scene { camera, settings, materials, textures: self.textures, objects, source: None })
+        let file = self.file;
+        let mut scene = Scene {
+            camera,
+            settings,
+            materials,
+            textures: self.textures,
+            objects,
+            source: None,
+            requires_grad: vec![],
+        };
+        for (i, path) in f.requires_grad.iter().enumerate() {
+            let bad = |e: Error| Error::scene(file, format!("requires_grad[{i}]"), e.to_string());
+            let p: crate::grad::ParamPath = path.parse().map_err(bad)?;
+            p.get(&scene).map_err(bad)?;
+            scene.requires_grad.push(p);
+        }
+        Ok(scene)
     }
 
     fn camera(&self, c: &CameraFile) -> Result<Camera> {

@@ -50,6 +50,8 @@ pub struct Scene {
     pub objects: Vec<Object>,
     /// The file this scene came from, if any (relative asset paths of exports resolve against it).
     pub source: Option<PathBuf>,
+    /// Parameters marked as requiring gradients.
+    pub requires_grad: Vec<crate::grad::ParamPath>,
 }
 
 impl Scene {
