@@ -11,7 +11,15 @@ use std::path::PathBuf;
 
 /// An empty scene seen by a look-at camera.
 pub fn empty_scene(camera: Camera, settings: RenderSettings) -> Scene {
-    Scene { camera, settings, materials: Vec::new(), textures: Vec::new(), objects: Vec::new(), source: None, requires_grad: Vec::new() }
+    Scene {
+        camera,
+        settings,
+        materials: Vec::new(),
+        textures: Vec::new(),
+        objects: Vec::new(),
+        source: None,
+        requires_grad: Vec::new(),
+    }
 }
 
 /// Adds a material and returns its index.

@@ -45,8 +45,9 @@ fn main() -> anyhow::Result<()> {
         .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/backends.csv"));
     let mut vk = VkBackend::new(None)?;
     let mut cpu = CpuBackend;
-    let mut csv =
-        String::from("scene,width,height,spp,triangles,backend,device,seconds,mrays_per_s,image_mean_rel_diff_vs_other_backend\n");
+    let mut csv = String::from(
+        "scene,width,height,spp,triangles,backend,device,seconds,mrays_per_s,image_mean_rel_diff_vs_other_backend\n",
+    );
     let mut bars = vec![];
     let cases: Vec<(&str, Scene)> = vec![
         ("room", room(128, 96, 16)?),

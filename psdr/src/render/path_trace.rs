@@ -30,7 +30,8 @@ pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32
     let s = Sampler { seed: fp.seed, pixel: py * cam.width + px, sample };
     let mut dir = camera_ray(cam, px as f32 + s.get(DIM_PIXEL_X), py as f32 + s.get(DIM_PIXEL_Y));
     let mut origin = Vec3::from(cam.origin);
-    let mut out = PathSample { radiance: Vec3::ZERO, depth: 0.0, normal: Vec3::ZERO, albedo: Vec3::ZERO, object: NONE, rays: 0 };
+    let mut out =
+        PathSample { radiance: Vec3::ZERO, depth: 0.0, normal: Vec3::ZERO, albedo: Vec3::ZERO, object: NONE, rays: 0 };
     let mut beta = Vec3::ONE;
     let mut prev_bsdf_pdf = 0.0f32;
     for depth in 0..fp.max_depth {
@@ -87,8 +88,13 @@ pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32
             }
         }
         // Continue the path by sampling the BSDF.
-        let Some(bs) = bsdf_sample(&sp.bsdf, wi, s.bounce(depth, DIM_LOBE), s.bounce(depth, DIM_BSDF_U), s.bounce(depth, DIM_BSDF_V))
-        else {
+        let Some(bs) = bsdf_sample(
+            &sp.bsdf,
+            wi,
+            s.bounce(depth, DIM_LOBE),
+            s.bounce(depth, DIM_BSDF_U),
+            s.bounce(depth, DIM_BSDF_V),
+        ) else {
             break;
         };
         beta *= bs.weight;

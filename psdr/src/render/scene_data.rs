@@ -41,7 +41,12 @@ impl SceneData {
             d.materials.push(material(m));
         }
         for t in &scene.textures {
-            d.textures.push(TextureGpu { offset: d.texels.len() as u32, width: t.width, height: t.height, channels: t.channels });
+            d.textures.push(TextureGpu {
+                offset: d.texels.len() as u32,
+                width: t.width,
+                height: t.height,
+                channels: t.channels,
+            });
             d.texels.extend_from_slice(&t.texels);
         }
         if d.texels.is_empty() {
@@ -59,7 +64,8 @@ impl SceneData {
             let flip = o.pose.is_mirroring();
             for part in &o.parts {
                 let p: Vec<Vec3> = part.positions.iter().map(|&v| m.transform_point3(v)).collect();
-                let n: Option<Vec<Vec3>> = part.normals.as_ref().map(|ns| ns.iter().map(|&v| (nm * v).normalize_or_zero()).collect());
+                let n: Option<Vec<Vec3>> =
+                    part.normals.as_ref().map(|ns| ns.iter().map(|&v| (nm * v).normalize_or_zero()).collect());
                 for t in &part.indices {
                     let [a, b, c] = if flip { [t[0], t[2], t[1]] } else { *t }.map(|i| i as usize);
                     let (v0, e1, e2) = (p[a], p[b] - p[a], p[c] - p[a]);
@@ -159,7 +165,11 @@ impl SceneData {
 
     /// Number of real lights (the buffer holds one dummy when there are none).
     pub fn light_count(&self) -> u32 {
-        if self.lights[0].triangle == NONE { 0 } else { self.lights.len() as u32 }
+        if self.lights[0].triangle == NONE {
+            0
+        } else {
+            self.lights.len() as u32
+        }
     }
 
     /// True when the BVH is the empty-scene placeholder.

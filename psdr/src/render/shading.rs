@@ -67,7 +67,11 @@ pub fn surface_point(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> Surfa
     let mut ns = if sh.flags & SHADING_HAS_NORMALS != 0 {
         let n = Vec3::from(sh.n0) * w + Vec3::from(sh.n1) * u + Vec3::from(sh.n2) * v;
         let len = n.length();
-        if len > 0.0 { n / len } else { ng }
+        if len > 0.0 {
+            n / len
+        } else {
+            ng
+        }
     } else {
         ng
     };
@@ -156,5 +160,9 @@ pub fn surface_point(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> Surfa
 #[inline(always)]
 pub fn offset_origin(p: Vec3, ng: Vec3, toward: Vec3) -> Vec3 {
     let eps = 2e-5 * (1.0 + p.abs().max_element());
-    if ng.dot(toward) >= 0.0 { p + ng * eps } else { p - ng * eps }
+    if ng.dot(toward) >= 0.0 {
+        p + ng * eps
+    } else {
+        p - ng * eps
+    }
 }
