@@ -1,0 +1,840 @@
+//! Speed against accuracy of radiance gradients (issue 5, deliverable 6): seconds per forward+backward
+//! iteration against the relative error of the gradient, for psdr (`analytic_gradient`, swept over spp, sppe
+//! and sppse) and for Mitsuba 3 LLVM (`llvm_ad_rgb`, run in the same process tree through
+//! benchmarks/mitsuba_grad.py on the scene `psdr export` writes), both against one truth: psdr's
+//! `central_difference` at high spp over several seeds, with its standard error.
+//!
+//! `cargo run -p psdr-benchmarks --release --bin bench_grad [-- --out DIR] [--large] [--quick] [--no-mitsuba]
+//! [--only CASE] [--chart-only CSV]`
+//! writes DIR/grad.csv and DIR/grad.svg (default benchmarks/results). Needs benchmarks/setup_mitsuba.sh
+//! (DRJIT_LIBLLVM_PATH defaults to Debian's libLLVM 19).
+//!
+//! Scenes: (a) the issue's room case, a flat-shaded blue cube (0.5 m, yaw 30 deg) resting on the floor of a
+//! closed room (inward box 4 x 2.6 x 5, diffuse 0.7) under a ceiling light, d/dx of the cube's translation,
+//! L2 to a target with the cube moved 5 cm along x; (b) the same with the cube lifted 5 cm; (c) the example
+//! room, wall albedo and ceiling-light radiance, L2 to a target with both perturbed. 128x96; with --large
+//! also (a) at 512x384, 16 spp.
+//!
+//! One psdr iteration = a forward render (the loss value) + `analytic_gradient` with one replica (which renders
+//! its own primal for the adjoint): both timed, best over the seeds. One Mitsuba iteration = parameter update +
+//! `mi.render` + L2 + `dr.backward`, best over the seeds after a warm-up iteration (reported as cold).
+//! Relative error = |g - g_fd| / |g_fd| over the parameter's compared components, per seed; the CSV gives its
+//! mean and standard deviation over seeds and the error of the seed-averaged gradient (a bias indicator).
+
+use anyhow::{bail, Context};
+use psdr::backend::{Backend, CpuBackend};
+use psdr::export::mitsuba::export_mitsuba;
+use psdr::grad::{analytic_gradient, central_difference, AdOptions, FdOptions, ImageLoss, Output, ParamPath};
+use psdr::render::SceneData;
+use psdr::scene::{load_scene, Scene};
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+/// One differentiated parameter: which components are compared, its FD step, and how Mitsuba addresses it.
+struct Param {
+    path: ParamPath,
+    components: Vec<usize>,
+    fd_step: f32,
+    mitsuba: Value,
+}
+
+struct FdPlan {
+    spp: u32,
+    replicas: u32,
+    /// A second, cheaper FD at this spp: the L2 loss of a noisy image carries Var/spp, whose derivative
+    /// biases FD by O(1/spp); (fd_low - fd) * low/(spp - low) estimates that bias at `spp`.
+    low_spp: u32,
+}
+
+struct Case {
+    name: String,
+    scene: Scene,
+    params: Vec<Param>,
+    target: Vec<f32>,
+    /// Sweep sppe/sppse and run Mitsuba's projective integrators (geometry); otherwise spp only and `prb`.
+    geometric: bool,
+    fd: FdPlan,
+    psdr_sweep: Vec<(u32, u32, u32)>,
+    mitsuba_integrators: Vec<Value>,
+    /// Central differences of Mitsuba's own loss (spp, seeds): checks the hookup and Mitsuba's renderer.
+    mitsuba_fd: Option<(u32, u32)>,
+    seeds: u32,
+}
+
+/// A measured method on one case: per-seed gradients (one vector per parameter), times and losses.
+#[derive(Default)]
+struct Runs {
+    grads: Vec<Vec<Vec<f64>>>,
+    times: Vec<f64>,
+    forward_times: Vec<f64>,
+    losses: Vec<f64>,
+    cold: Option<f64>,
+}
+
+struct Row {
+    case: String,
+    size: String,
+    method: String,
+    spp: u32,
+    sppe: String,
+    sppse: String,
+    runs: Runs,
+}
+
+fn room_with_cube(lift: f32, width: u32, height: u32) -> String {
+    format!(
+        r#"{{ "format": "psdr-scene", "version": 1,
+  "camera": {{ "origin": [0.4, 1.3, 2.2], "target": [0, 0.3, 0], "up": [0, 1, 0], "fov_y": 45, "width": {width}, "height": {height} }},
+  "render": {{ "spp": 16, "max_depth": 3, "rr_depth": 3 }},
+  "materials": [ {{ "name": "wall", "albedo": 0.7, "specular": 0 }}, {{ "name": "blue", "albedo": [0.1, 0.3, 0.8], "specular": 0 }} ],
+  "shapes": [
+    {{ "name": "room", "type": "box", "size": [4, 2.6, 5], "inward": true, "material": "wall",
+       "transform": {{ "translation": [0, 1.3, 0] }} }},
+    {{ "name": "cube", "type": "box", "size": [0.5, 0.5, 0.5], "material": "blue",
+       "transform": {{ "translation": [0, {}, 0], "rotation_deg": [0, 30, 0] }} }},
+    {{ "name": "light", "type": "rectangle", "size": [1, 1], "material": "wall",
+       "transform": {{ "translation": [0, 2.59, 0], "rotation_deg": [90, 0, 0] }}, "emitter": {{ "radiance": 5 }} }} ] }}
+"#,
+        0.25 + lift
+    )
+}
+
+/// Mitsuba ids of an object's shapes, as the exporter writes them.
+fn shape_ids(scene: &Scene, object: &str) -> Vec<String> {
+    let o = &scene.objects[scene.object_index(object).expect("object")];
+    o.parts
+        .iter()
+        .map(|p| {
+            format!("{}_{}", o.name, p.name)
+                .chars()
+                .map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '_' })
+                .collect()
+        })
+        .collect()
+}
+
+fn render(scene: &Scene, spp: u32, seed: u32) -> anyhow::Result<Vec<f32>> {
+    let mut s = scene.settings.clone();
+    s.spp = spp;
+    s.seed = seed;
+    Ok(CpuBackend.render(&SceneData::build(scene)?, &s, &|_, _| {})?.radiance)
+}
+
+fn l2(loss_target: &[f32]) -> ImageLoss {
+    ImageLoss::L2To { output: Output::Radiance, target: loss_target.to_vec() }
+}
+
+fn cube_case(dir: &Path, lift: f32, width: u32, height: u32, large: bool, quick: bool) -> anyhow::Result<Case> {
+    let name = if lift == 0.0 { "cube_on_floor" } else { "cube_lifted" };
+    let p = dir.join(format!("{name}_{width}x{height}.json"));
+    std::fs::write(&p, room_with_cube(lift, width, height))?;
+    let scene = load_scene(&p)?;
+    let mut t = scene.clone();
+    t.objects[1].pose.translation.x += 0.05;
+    let target_spp = if large { 256 } else { 1024 };
+    let target = render(&t, target_spp, 777)?;
+    let ids = shape_ids(&scene, "cube");
+    let psdr_sweep = if large {
+        vec![(16, 1 << 16, 1), (16, 1 << 18, 1)]
+    } else if quick {
+        vec![(4, 1 << 14, 1), (16, 1 << 16, 1)]
+    } else {
+        vec![
+            (4, 1 << 14, 1),
+            (4, 1 << 16, 1),
+            (16, 1 << 14, 1),
+            (16, 1 << 16, 1),
+            (16, 1 << 18, 1),
+            (16, 1 << 16, 2),
+            (64, 1 << 16, 1),
+            (64, 1 << 18, 1),
+            (64, 1 << 18, 2),
+        ]
+    };
+    let spps: Vec<u32> = if large { vec![16] } else { vec![4, 16, 64] };
+    let mut mitsuba_integrators = vec![
+        json!({"label": "prb_projective_noguide", "type": "prb_projective", "guiding": "none", "spp": spps}),
+        json!({"label": "direct_projective", "type": "direct_projective", "spp": spps}),
+    ];
+    if !large {
+        // Mitsuba's default (octree-guided indirect boundary) costs ~20 s per iteration at this size, mostly the
+        // guiding octree; measured at 16 spp and 2 seeds only.
+        mitsuba_integrators
+            .insert(0, json!({"label": "prb_projective", "type": "prb_projective", "spp": [16], "seeds": [0, 1]}));
+    }
+    Ok(Case {
+        name: name.into(),
+        scene,
+        params: vec![Param {
+            path: "object/cube/translation".parse()?,
+            components: vec![0],
+            fd_step: 0.01,
+            mitsuba: json!({"label": "object/cube/translation", "kind": "translation", "shapes": ids, "component": 0}),
+        }],
+        target,
+        geometric: true,
+        fd: if large {
+            FdPlan { spp: 128, replicas: 4, low_spp: 32 }
+        } else if quick {
+            FdPlan { spp: 256, replicas: 4, low_spp: 64 }
+        } else {
+            FdPlan { spp: 1024, replicas: 6, low_spp: 128 }
+        },
+        psdr_sweep,
+        mitsuba_integrators,
+        mitsuba_fd: if large { None } else { Some((1024, 3)) },
+        seeds: if large { 3 } else { 4 },
+    })
+}
+
+fn material_case(quick: bool) -> anyhow::Result<Case> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/room/scene.json");
+    let mut scene = load_scene(&path).with_context(|| format!("loading {}", path.display()))?;
+    scene.camera.width = 128;
+    scene.camera.height = 96;
+    let albedo: ParamPath = "material/wall/albedo".parse()?;
+    let radiance: ParamPath = "light/ceiling_light/radiance".parse()?;
+    let wall = scene.material_index("wall").expect("wall");
+    {
+        let m = &scene.materials[wall];
+        if !matches!(m.specular, psdr::scene::Scalar::Constant(s) if s <= 0.0) || m.normal_map.is_some() {
+            bail!("material 'wall' must export as Mitsuba's diffuse for its albedo key");
+        }
+    }
+    let mut t = scene.clone();
+    let a = albedo.get(&t)?;
+    albedo.set(&mut t, &[a[0] * 0.9, a[1], a[2] * 1.1])?;
+    let r = radiance.get(&t)?;
+    radiance.set(&mut t, &r.iter().map(|v| v * 1.1).collect::<Vec<_>>())?;
+    let target = render(&t, if quick { 256 } else { 1024 }, 777)?;
+    let light_keys: Vec<String> =
+        shape_ids(&scene, "ceiling_light").into_iter().map(|id| format!("{id}.emitter.radiance.value")).collect();
+    let spps = vec![4, 16, 64];
+    Ok(Case {
+        name: "room_albedo_radiance".into(),
+        params: vec![
+            Param {
+                path: albedo.clone(),
+                components: vec![0, 1, 2],
+                fd_step: 0.01,
+                mitsuba: json!({"label": albedo.to_string(), "kind": "value",
+                                "keys": [format!("mat{wall}.brdf_0.reflectance.value")]}),
+            },
+            Param {
+                path: radiance.clone(),
+                components: vec![0, 1, 2],
+                fd_step: 0.1,
+                mitsuba: json!({"label": radiance.to_string(), "kind": "value", "keys": light_keys}),
+            },
+        ],
+        scene,
+        target,
+        geometric: false,
+        fd: if quick {
+            FdPlan { spp: 128, replicas: 3, low_spp: 32 }
+        } else {
+            FdPlan { spp: 512, replicas: 4, low_spp: 64 }
+        },
+        psdr_sweep: spps.iter().map(|&s| (s, 0, 0)).collect(),
+        mitsuba_integrators: vec![json!({"label": "prb", "type": "prb", "spp": spps})],
+        mitsuba_fd: None,
+        seeds: 4,
+    })
+}
+
+fn mean_sd(x: &[f64]) -> (f64, f64) {
+    let n = x.len() as f64;
+    let m = x.iter().sum::<f64>() / n;
+    let v = if x.len() > 1 { x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0) } else { f64::NAN };
+    (m, v.sqrt())
+}
+
+fn rel_err(g: &[f64], truth: &[f64]) -> f64 {
+    let d: f64 = g.iter().zip(truth).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+    d / truth.iter().map(|b| b * b).sum::<f64>().sqrt()
+}
+
+fn min(x: &[f64]) -> f64 {
+    x.iter().cloned().fold(f64::INFINITY, f64::min)
+}
+
+/// The truth for one parameter: FD mean and standard error on the compared components, plus the FD at the
+/// lower spp (for the O(1/spp) bias estimate) and the seconds spent.
+struct Truth {
+    mean: Vec<f64>,
+    se: Vec<f64>,
+    low: Vec<f64>,
+    secs: f64,
+}
+
+fn truth(case: &Case, loss: &ImageLoss, p: &Param) -> anyhow::Result<Truth> {
+    let fd_at = |spp: u32| -> anyhow::Result<(Vec<f64>, Vec<f64>)> {
+        let mut s = case.scene.clone();
+        s.settings.spp = spp;
+        s.settings.seed = 5000;
+        let opts = FdOptions { step: p.fd_step, replicas: case.fd.replicas, components: p.components.clone() };
+        let f = central_difference(&s, &p.path, loss, &opts, &mut CpuBackend)?;
+        Ok((f.mean, f.std_err))
+    };
+    let t = Instant::now();
+    let (mean, se) = fd_at(case.fd.spp)?;
+    let secs = t.elapsed().as_secs_f64();
+    let (low, _) = fd_at(case.fd.low_spp)?;
+    Ok(Truth { mean, se, low, secs })
+}
+
+fn run_psdr(case: &Case, loss: &ImageLoss, spp: u32, sppe: u32, sppse: u32) -> anyhow::Result<Runs> {
+    let paths: Vec<ParamPath> = case.params.iter().map(|p| p.path.clone()).collect();
+    let opts = AdOptions { replicas: 1, edge_samples: sppe, secondary_edge_samples: sppse };
+    let mut runs = Runs::default();
+    for seed in 0..case.seeds {
+        let mut s = case.scene.clone();
+        s.settings.spp = spp;
+        s.settings.seed = seed * 7919 + 11;
+        let t = Instant::now();
+        let img = CpuBackend.render(&SceneData::build(&s)?, &s.settings, &|_, _| {})?;
+        runs.forward_times.push(t.elapsed().as_secs_f64());
+        runs.losses.push(loss.eval(&img)?);
+        let t = Instant::now();
+        let g = analytic_gradient(&s, &paths, loss, &opts, &mut CpuBackend)?;
+        runs.times.push(t.elapsed().as_secs_f64());
+        // Split the flat gradient per parameter and keep the compared components.
+        let mut at = 0;
+        let mut per = vec![];
+        for p in &case.params {
+            let n = p.path.get(&s)?.len();
+            per.push(p.components.iter().map(|&c| g.mean[at + c]).collect());
+            at += n;
+        }
+        runs.grads.push(per);
+    }
+    Ok(runs)
+}
+
+fn write_f32(path: &Path, v: &[f32]) -> anyhow::Result<()> {
+    std::fs::write(path, v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>())?;
+    Ok(())
+}
+
+/// Runs mitsuba_grad.py on the exported case; returns (integrator label, spp) -> runs, and the primal check.
+fn run_mitsuba(case: &Case, dir: &Path, reference: &[f32]) -> anyhow::Result<(Vec<(String, u32, Runs)>, Value)> {
+    let bench = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let python = bench.join(".venv/bin/python");
+    if !python.exists() {
+        bail!("{} missing: run benchmarks/setup_mitsuba.sh", python.display());
+    }
+    let export_dir = dir.join(format!("{}_mitsuba", case.name));
+    let xml = export_mitsuba(&case.scene, &export_dir)?;
+    let (w, h) = (case.scene.camera.width, case.scene.camera.height);
+    write_f32(&export_dir.join("target.f32"), &case.target)?;
+    write_f32(&export_dir.join("reference.f32"), reference)?;
+    let cfg = json!({
+        "scene": xml, "width": w, "height": h,
+        "target": export_dir.join("target.f32"), "reference": export_dir.join("reference.f32"), "reference_spp": 256,
+        "max_depth": case.scene.settings.max_depth, "rr_depth": case.scene.settings.rr_depth,
+        "params": case.params.iter().map(|p| p.mitsuba.clone()).collect::<Vec<_>>(),
+        "integrators": case.mitsuba_integrators, "seeds": (0..case.seeds).collect::<Vec<_>>(),
+    });
+    let mut cfg = cfg;
+    if let Some((spp, seeds)) = case.mitsuba_fd {
+        let steps: serde_json::Map<String, Value> =
+            case.params.iter().map(|p| (p.path.to_string(), json!(p.fd_step))).collect();
+        cfg["fd"] = json!({"spp": spp, "seeds": (100..100 + seeds).collect::<Vec<_>>(), "steps": steps});
+    }
+    let cfg_path = export_dir.join("config.json");
+    std::fs::write(&cfg_path, serde_json::to_string_pretty(&cfg)?)?;
+    let llvm =
+        std::env::var("DRJIT_LIBLLVM_PATH").unwrap_or_else(|_| "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1".into());
+    let mut child = Command::new(&python)
+        .arg(bench.join("mitsuba_grad.py"))
+        .arg(&cfg_path)
+        .env("DRJIT_LIBLLVM_PATH", llvm)
+        .stdout(Stdio::piped())
+        .spawn()
+        .context("starting mitsuba_grad.py")?;
+    let mut out: Vec<(String, u32, Runs)> = vec![];
+    let mut primal = Value::Null;
+    for line in BufReader::new(child.stdout.take().expect("piped")).lines() {
+        let line = line?;
+        // Mitsuba's log (warnings) also goes to stdout; our records are the JSON lines.
+        let Some(json_at) = line.find('{') else { continue };
+        let Ok(v) = serde_json::from_str::<Value>(&line[json_at..]) else {
+            eprintln!("  mitsuba log: {line}");
+            continue;
+        };
+        let event = v["event"].as_str().unwrap_or_default();
+        if event == "primal_check" {
+            println!("  mitsuba primal check: {v}");
+            primal = v;
+            continue;
+        }
+        if event == "fd" {
+            // Mitsuba's own FD: stored as a pseudo-method with one "seed" (its mean) and the time it took.
+            let label = v["label"].as_str().unwrap_or_default();
+            let mean: Vec<f64> =
+                v["mean"].as_array().map(|a| a.iter().filter_map(|x| x.as_f64()).collect()).unwrap_or_default();
+            println!("  mitsuba own FD {label}: {mean:?} ± {} ({} spp)", v["std_err"], v["spp"]);
+            let spp = v["spp"].as_u64().unwrap_or(0) as u32;
+            let mut runs = Runs { times: vec![v["seconds"].as_f64().unwrap_or(f64::NAN)], ..Default::default() };
+            runs.grads.push(
+                case.params
+                    .iter()
+                    .map(|p| {
+                        if p.path.to_string() == label {
+                            p.components.iter().map(|&c| mean.get(c).copied().unwrap_or(f64::NAN)).collect()
+                        } else {
+                            vec![f64::NAN; p.components.len()]
+                        }
+                    })
+                    .collect(),
+            );
+            out.push(("own_fd".into(), spp, runs));
+            continue;
+        }
+        if event != "cold" && event != "iteration" {
+            println!("  mitsuba: {v}");
+            continue;
+        }
+        let label = v["integrator"].as_str().unwrap_or_default().to_string();
+        let spp = v["spp"].as_u64().unwrap_or(0) as u32;
+        let secs = v["seconds"].as_f64().unwrap_or(f64::NAN);
+        let idx = match out.iter().position(|(l, s, _)| *l == label && *s == spp) {
+            Some(i) => i,
+            None => {
+                out.push((label.clone(), spp, Runs::default()));
+                out.len() - 1
+            }
+        };
+        let runs = &mut out[idx].2;
+        if event == "cold" {
+            runs.cold = Some(secs);
+            println!("  mitsuba {label} {spp} spp: cold iteration {secs:.2} s");
+            continue;
+        }
+        runs.times.push(secs);
+        runs.losses.push(v["loss"].as_f64().unwrap_or(f64::NAN));
+        let per: Vec<Vec<f64>> = case
+            .params
+            .iter()
+            .map(|p| {
+                let g: Vec<f64> = v["grad"][p.path.to_string()]
+                    .as_array()
+                    .map(|a| a.iter().filter_map(|x| x.as_f64()).collect())
+                    .unwrap_or_default();
+                // Translation: one float (the component); RGB values: all three.
+                if g.len() == 1 {
+                    g
+                } else {
+                    p.components.iter().map(|&c| g.get(c).copied().unwrap_or(f64::NAN)).collect()
+                }
+            })
+            .collect();
+        runs.grads.push(per);
+    }
+    if !child.wait()?.success() {
+        bail!("mitsuba_grad.py failed");
+    }
+    Ok((out, primal))
+}
+
+struct Args {
+    out: PathBuf,
+    chart_only: Option<PathBuf>,
+    only: Option<String>,
+    large: bool,
+    quick: bool,
+    mitsuba: bool,
+}
+
+fn parse_args() -> anyhow::Result<Args> {
+    let mut a = Args {
+        out: Path::new(env!("CARGO_MANIFEST_DIR")).join("results"),
+        chart_only: None,
+        only: None,
+        large: false,
+        quick: false,
+        mitsuba: true,
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(x) = it.next() {
+        match x.as_str() {
+            "--out" => a.out = it.next().context("--out DIR")?.into(),
+            "--large" => a.large = true,
+            "--quick" => a.quick = true,
+            "--no-mitsuba" => a.mitsuba = false,
+            "--only" => a.only = Some(it.next().context("--only CASE")?),
+            "--chart-only" => a.chart_only = Some(it.next().context("--chart-only CSV")?.into()),
+            _ => {
+                bail!("unknown argument {x} (--out DIR, --large, --quick, --no-mitsuba, --only CASE, --chart-only CSV)")
+            }
+        }
+    }
+    Ok(a)
+}
+
+const CSV_HEADER: &str = "case,size,param,method,spp,sppe,sppse,seeds,seconds_iter,seconds_forward,seconds_grad,\
+seconds_cold,rel_err_mean,rel_err_sd,rel_err_of_mean,grad_mean,truth,truth_se,loss_mean,loss_se\n";
+
+fn fmt_vec(v: &[f64]) -> String {
+    v.iter().map(|x| format!("{x:.6e}")).collect::<Vec<_>>().join(" ")
+}
+
+fn main() -> anyhow::Result<()> {
+    let args = parse_args()?;
+    std::fs::create_dir_all(&args.out)?;
+    let work = std::env::temp_dir().join(format!("psdr_bench_grad_{}", std::process::id()));
+    std::fs::create_dir_all(&work)?;
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    println!("bench_grad: {threads} threads; best-of timings (the machine may be shared); work dir {}", work.display());
+    let mut cases = vec![];
+    if args.large {
+        cases.push(cube_case(&work, 0.0, 512, 384, true, args.quick)?);
+    } else {
+        cases.push(cube_case(&work, 0.0, 128, 96, false, args.quick)?);
+        cases.push(cube_case(&work, 0.05, 128, 96, false, args.quick)?);
+        cases.push(material_case(args.quick)?);
+    }
+    if let Some(only) = &args.only {
+        cases.retain(|c| c.name == *only);
+    }
+    let csv_path = args.out.join("grad.csv");
+    if let Some(csv) = &args.chart_only {
+        return write_chart(csv, threads);
+    }
+    let mut csv = String::from(CSV_HEADER);
+    let total = Instant::now();
+    for case in &cases {
+        let size = format!("{}x{}", case.scene.camera.width, case.scene.camera.height);
+        println!("== {} at {size}", case.name);
+        let loss = l2(&case.target);
+        let truths: Vec<Truth> = case.params.iter().map(|p| truth(case, &loss, p)).collect::<anyhow::Result<_>>()?;
+        for (p, t) in case.params.iter().zip(&truths) {
+            let k = case.fd.low_spp as f64 / (case.fd.spp - case.fd.low_spp) as f64;
+            let bias: Vec<f64> = t.low.iter().zip(&t.mean).map(|(l, m)| (l - m) * k).collect();
+            println!(
+                "  truth {}: FD {} ± {} ({} spp x {} seeds x 2, {:.1} s); FD at {} spp {}; est. 1/spp bias at {} spp {}",
+                p.path,
+                fmt_vec(&t.mean),
+                fmt_vec(&t.se),
+                case.fd.spp,
+                case.fd.replicas,
+                t.secs,
+                case.fd.low_spp,
+                fmt_vec(&t.low),
+                case.fd.spp,
+                fmt_vec(&bias)
+            );
+        }
+        let mut rows = vec![];
+        for &(spp, sppe, sppse) in &case.psdr_sweep {
+            let runs = run_psdr(case, &loss, spp, sppe, sppse)?;
+            let (sppe_s, sppse_s) =
+                if case.geometric { (sppe.to_string(), sppse.to_string()) } else { ("-".into(), "-".into()) };
+            rows.push(Row {
+                case: case.name.clone(),
+                size: size.clone(),
+                method: "psdr".into(),
+                spp,
+                sppe: sppe_s,
+                sppse: sppse_s,
+                runs,
+            });
+        }
+        let mut primal = Value::Null;
+        if args.mitsuba {
+            let reference = render(&case.scene, 256, 4242)?;
+            let (m, pc) = run_mitsuba(case, &work, &reference)?;
+            primal = pc;
+            for (label, spp, runs) in m {
+                rows.push(Row {
+                    case: case.name.clone(),
+                    size: size.clone(),
+                    method: format!("mitsuba_{label}"),
+                    spp,
+                    sppe: "-".into(),
+                    sppse: "-".into(),
+                    runs,
+                });
+            }
+        }
+        // Loss agreement at equal spp (noise included: E[L] = |E[I] - T|^2 + Var/spp, so equal spp is required).
+        for r in rows.iter().filter(|r| r.method != "psdr") {
+            if let Some(o) = rows.iter().find(|o| o.method == "psdr" && o.spp == r.spp) {
+                let (lm, ls) = mean_sd(&r.runs.losses);
+                let (om, os) = mean_sd(&o.runs.losses);
+                println!(
+                    "  loss at {} spp: {} {lm:.6e} ± {:.1e}, psdr {om:.6e} ± {:.1e} (ratio {:.4})",
+                    r.spp,
+                    r.method,
+                    ls / (r.runs.losses.len() as f64).sqrt(),
+                    os / (o.runs.losses.len() as f64).sqrt(),
+                    lm / om
+                );
+            }
+        }
+        if !primal.is_null() {
+            writeln!(csv, "# {},{size}, primal check (Mitsuba path 256 spp vs psdr 256 spp): {primal}", case.name)?;
+        }
+        for (pi, p) in case.params.iter().enumerate() {
+            let t = &truths[pi];
+            let rel_se =
+                t.se.iter().map(|x| x * x).sum::<f64>().sqrt() / t.mean.iter().map(|x| x * x).sum::<f64>().sqrt();
+            writeln!(
+                csv,
+                "{},{size},{},fd_truth,{},-,-,{},{:.4},,,,{rel_se:.4e},,,,{},{},,",
+                case.name,
+                p.path,
+                case.fd.spp,
+                case.fd.replicas,
+                t.secs / (2 * case.fd.replicas) as f64,
+                fmt_vec(&t.mean),
+                fmt_vec(&t.se)
+            )?;
+            for r in &rows {
+                let errs: Vec<f64> = r.runs.grads.iter().map(|g| rel_err(&g[pi], &t.mean)).collect();
+                if errs.iter().all(|e| e.is_nan()) {
+                    continue; // Mitsuba's own FD of another parameter
+                }
+                let (em, esd) = mean_sd(&errs);
+                let n = r.runs.grads.len();
+                let gmean: Vec<f64> = (0..p.components.len())
+                    .map(|c| r.runs.grads.iter().map(|g| g[pi][c]).sum::<f64>() / n as f64)
+                    .collect();
+                let (lm, lsd) = mean_sd(&r.runs.losses);
+                let (fwd, grad) = (min(&r.runs.forward_times), min(&r.runs.times));
+                let iter = if r.method == "psdr" { fwd + grad } else { grad };
+                writeln!(
+                    csv,
+                    "{},{},{},{},{},{},{},{n},{iter:.4},{},{grad:.4},{},{em:.4e},{esd:.4e},{:.4e},{},{},{},{lm:.6e},{:.2e}",
+                    r.case,
+                    r.size,
+                    p.path,
+                    r.method,
+                    r.spp,
+                    r.sppe,
+                    r.sppse,
+                    if r.method == "psdr" { format!("{fwd:.4}") } else { String::new() },
+                    r.runs.cold.map(|c| format!("{c:.3}")).unwrap_or_default(),
+                    rel_err(&gmean, &t.mean),
+                    fmt_vec(&gmean),
+                    fmt_vec(&t.mean),
+                    fmt_vec(&t.se),
+                    lsd / (r.runs.losses.len() as f64).sqrt()
+                )?;
+                println!(
+                    "  {:<34} {:<28} spp {:>3} sppe {:>6} sppse {:>2}: {iter:7.3} s/iter, rel err {:.3} ± {:.3} (of mean {:.3})",
+                    r.method,
+                    p.path.to_string(),
+                    r.spp,
+                    r.sppe,
+                    r.sppse,
+                    em,
+                    esd,
+                    rel_err(&gmean, &t.mean)
+                );
+            }
+        }
+        std::fs::write(work.join("partial.csv"), &csv)?;
+    }
+    println!("total {:.0} s", total.elapsed().as_secs_f64());
+    // --large adds its rows to an existing grad.csv (replacing earlier rows of the same case and size).
+    if args.large && csv_path.exists() {
+        let keys: Vec<String> =
+            cases.iter().map(|c| format!("{},{}x{},", c.name, c.scene.camera.width, c.scene.camera.height)).collect();
+        let old = std::fs::read_to_string(&csv_path)?;
+        let kept: String = old
+            .lines()
+            .skip(1)
+            .filter(|l| !keys.iter().any(|k| l.trim_start_matches("# ").starts_with(k.as_str())))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        csv = format!("{CSV_HEADER}{kept}{}", &csv[CSV_HEADER.len()..]);
+    }
+    std::fs::write(&csv_path, &csv)?;
+    std::fs::remove_dir_all(&work).ok();
+    write_chart(&csv_path, threads)?;
+    Ok(())
+}
+
+/// One plotted point: seconds per iteration, relative error mean and spread, and a short label.
+struct Point {
+    secs: f64,
+    err: f64,
+    sd: f64,
+    label: String,
+}
+
+/// Series colours by method (psdr first).
+const SERIES: [(&str, &str, &str); 5] = [
+    ("psdr", "#1f77b4", "psdr (analytic_gradient)"),
+    ("mitsuba_prb_projective", "#d62728", "Mitsuba prb_projective (octree guiding)"),
+    ("mitsuba_prb_projective_noguide", "#ff7f0e", "Mitsuba prb_projective, guiding none"),
+    ("mitsuba_direct_projective", "#9467bd", "Mitsuba direct_projective"),
+    ("mitsuba_prb", "#2ca02c", "Mitsuba prb"),
+];
+
+fn write_chart(csv_path: &Path, threads: usize) -> anyhow::Result<()> {
+    let csv = std::fs::read_to_string(csv_path)?;
+    let svg = csv_path.with_extension("svg");
+    std::fs::write(&svg, chart(&csv, threads))?;
+    println!("wrote {} and {}", csv_path.display(), svg.display());
+    Ok(())
+}
+
+/// Log-log panels, one per (case, size, parameter): x = seconds per forward+backward iteration, y = relative
+/// gradient error against FD (mean over seeds, bar = ± one standard deviation), one series per method; the
+/// dashed line is the truth's own relative standard error (errors near it are not resolved).
+fn chart(csv: &str, threads: usize) -> String {
+    let mut panels: Vec<(String, Vec<(String, Point)>, f64)> = vec![];
+    for line in csv.lines().skip(1).filter(|l| !l.starts_with('#')) {
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() < 16 {
+            continue;
+        }
+        let key = format!("{} {} {}", f[0], f[1], f[2]);
+        let idx = match panels.iter().position(|p| p.0 == key) {
+            Some(i) => i,
+            None => {
+                panels.push((key, vec![], f64::NAN));
+                panels.len() - 1
+            }
+        };
+        let num = |i: usize| f[i].parse::<f64>().unwrap_or(f64::NAN);
+        if f[3] == "fd_truth" {
+            panels[idx].2 = num(12);
+            continue;
+        }
+        let label = if f[3] == "psdr" && f[5] != "-" {
+            format!("{}/{}k/{}", f[4], num(5) as u64 / 1024, f[6])
+        } else {
+            f[4].to_string()
+        };
+        panels[idx].1.push((f[3].to_string(), Point { secs: num(8), err: num(12), sd: num(13), label }));
+    }
+    let (pw, ph, cols) = (460.0, 340.0, 2usize);
+    let rows = panels.len().div_ceil(cols).max(1);
+    let (w, h) = (pw * cols as f64 + 20.0, ph * rows as f64 + 130.0);
+    let mut s = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"11\">\n\
+<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n\
+<text x=\"10\" y=\"20\" font-size=\"14\">Gradient error against FD vs seconds per forward+backward iteration ({threads} CPU threads, \
+shared machine, best-of timings)</text>\n\
+<text x=\"10\" y=\"36\" fill=\"#555\">psdr labels: spp/sppe(k)/sppse; Mitsuba labels: spp. Bars: ± 1 sd over seeds. Dashed: truth's \
+relative standard error.</text>\n"
+    );
+    for (pi, (title, pts, floor)) in panels.iter().enumerate() {
+        let (ox, oy) = (10.0 + pw * (pi % cols) as f64, 50.0 + ph * (pi / cols) as f64);
+        let (l, r, t, b) = (ox + 55.0, ox + pw - 15.0, oy + 22.0, oy + ph - 40.0);
+        let good = |v: f64| v.is_finite() && v > 0.0;
+        let xs: Vec<f64> = pts.iter().map(|p| p.1.secs).filter(|&v| good(v)).collect();
+        let mut ys: Vec<f64> = pts.iter().map(|p| p.1.err).filter(|&v| good(v)).collect();
+        if good(*floor) {
+            ys.push(*floor);
+        }
+        if xs.is_empty() || ys.is_empty() {
+            continue;
+        }
+        let lo = |v: &[f64]| v.iter().cloned().fold(f64::INFINITY, f64::min).log10().floor();
+        let hi = |v: &[f64]| v.iter().cloned().fold(f64::NEG_INFINITY, f64::max).log10().ceil();
+        let (x0, x1) = (lo(&xs), hi(&xs).max(lo(&xs) + 1.0));
+        let (y0, y1) = (lo(&ys), hi(&ys).max(lo(&ys) + 1.0));
+        let px = |v: f64| l + (v.log10() - x0) / (x1 - x0) * (r - l);
+        let py = |v: f64| b - (v.max(10f64.powf(y0)).log10() - y0) / (y1 - y0) * (b - t);
+        let _ =
+            writeln!(s, "<text x=\"{}\" y=\"{}\" font-size=\"12\" font-weight=\"bold\">{title}</text>", l, oy + 14.0);
+        let _ = writeln!(
+            s,
+            "<rect x=\"{l}\" y=\"{t}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"#333\"/>",
+            r - l,
+            b - t
+        );
+        for e in x0 as i32..=x1 as i32 {
+            let x = px(10f64.powi(e));
+            let _ = writeln!(s, "<line x1=\"{x}\" y1=\"{t}\" x2=\"{x}\" y2=\"{b}\" stroke=\"#ddd\"/><text x=\"{x}\" y=\"{}\" text-anchor=\"middle\">{}</text>", b + 14.0, fmt_pow(e));
+        }
+        for e in y0 as i32..=y1 as i32 {
+            let y = py(10f64.powi(e));
+            let _ = writeln!(s, "<line x1=\"{l}\" y1=\"{y}\" x2=\"{r}\" y2=\"{y}\" stroke=\"#ddd\"/><text x=\"{}\" y=\"{}\" text-anchor=\"end\">{}</text>", l - 4.0, y + 4.0, fmt_pow(e));
+        }
+        let _ = writeln!(
+            s,
+            "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">seconds per iteration</text>",
+            (l + r) / 2.0,
+            b + 30.0
+        );
+        let _ = writeln!(
+            s,
+            "<text transform=\"translate({},{}) rotate(-90)\" text-anchor=\"middle\">relative error</text>",
+            ox + 14.0,
+            (t + b) / 2.0
+        );
+        if good(*floor) {
+            let y = py(*floor);
+            let _ = writeln!(
+                s,
+                "<line x1=\"{l}\" y1=\"{y}\" x2=\"{r}\" y2=\"{y}\" stroke=\"#000\" stroke-dasharray=\"4 3\"/>"
+            );
+        }
+        for (method, colour, _) in SERIES {
+            let mut series: Vec<&Point> =
+                pts.iter().filter(|p| p.0 == method).map(|p| &p.1).filter(|p| good(p.secs) && good(p.err)).collect();
+            series.sort_by(|a, b| a.secs.total_cmp(&b.secs));
+            // Pareto front (no faster point with lower error) as a line, labelled.
+            let mut front: Vec<&Point> = vec![];
+            for p in &series {
+                if front.last().is_none_or(|q| p.err < q.err) {
+                    front.push(p);
+                }
+            }
+            let line: Vec<String> = front.iter().map(|p| format!("{:.1},{:.1}", px(p.secs), py(p.err))).collect();
+            if line.len() > 1 {
+                let _ = writeln!(
+                    s,
+                    "<polyline points=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.5\"/>",
+                    line.join(" ")
+                );
+            }
+            for p in &series {
+                let (x, y) = (px(p.secs), py(p.err));
+                if good(p.sd) {
+                    let _ = writeln!(s, "<line x1=\"{x:.1}\" y1=\"{:.1}\" x2=\"{x:.1}\" y2=\"{:.1}\" stroke=\"{colour}\" opacity=\"0.5\"/>", py(p.err + p.sd), py((p.err - p.sd).max(p.err * 0.05)));
+                }
+                let _ = writeln!(s, "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"3\" fill=\"{colour}\" opacity=\"0.8\"><title>{method} {}: {:.3} s, {:.3} ± {:.3}</title></circle>", p.label, p.secs, p.err, p.sd);
+                if method != "psdr" || front.iter().any(|q| std::ptr::eq(*q, *p)) {
+                    let _ = writeln!(
+                        s,
+                        "<text x=\"{:.1}\" y=\"{:.1}\" font-size=\"9\" fill=\"{colour}\">{}</text>",
+                        x + 4.0,
+                        y - 4.0,
+                        p.label
+                    );
+                }
+            }
+        }
+    }
+    let ly = h - 70.0 + 10.0;
+    for (i, (_, colour, name)) in SERIES.iter().enumerate() {
+        let (x, y) = (20.0 + (i % 3) as f64 * 300.0, ly + (i / 3) as f64 * 18.0);
+        let _ = writeln!(
+            s,
+            "<circle cx=\"{x}\" cy=\"{}\" r=\"4\" fill=\"{colour}\"/><text x=\"{}\" y=\"{}\">{name}</text>",
+            y - 4.0,
+            x + 8.0,
+            y
+        );
+    }
+    s += "</svg>\n";
+    s
+}
+
+fn fmt_pow(e: i32) -> String {
+    match e {
+        -2..=0 => format!("{}", 10f64.powi(e)),
+        1..=3 => format!("{}", 10i64.pow(e as u32)),
+        _ => format!("1e{e}"),
+    }
+}
