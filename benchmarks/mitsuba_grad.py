@@ -14,7 +14,8 @@ CONFIG (written by bench_grad):
                  or {"label", "kind": "value", "keys": [keys of mi.traverse(scene)]}
     integrators  list of {"label", "type", "spp": [samples per pixel], ...extra plugin properties}
                  e.g. {"label": "prb_projective_noguide", "type": "prb_projective", "guiding": "none", "spp": [16]}
-                 and optionally its own "seeds" (e.g. fewer for slow integrators)
+                 and optionally its own "seeds" (e.g. fewer for slow integrators) and "weld": true (render a
+                 copy of the scene whose PLY meshes have their vertices merged by position, see welded_scene)
     seeds        list of seeds (one timed iteration each)
     fd           optional {"spp", "seeds": [..], "steps": {label: h}}: central differences of Mitsuba's own L2
                  loss (path tracer, same seed at +h and -h), a check of the parameter hookup and of how far
@@ -30,8 +31,10 @@ Prints one JSON object per line on stdout. Needs benchmarks/setup_mitsuba.sh (ve
 """
 
 import json
+import os
 import sys
 import time
+import xml.etree.ElementTree as ET
 
 import drjit as dr
 import mitsuba as mi
@@ -42,6 +45,36 @@ def load_image(path, w, h):
     a = np.fromfile(path, dtype="<f4")
     assert a.size == w * h * 3, f"{path}: {a.size} floats, expected {w * h * 3}"
     return a.reshape(h, w, 3)
+
+
+def welded_scene(xml_path):
+    """The scene with every PLY mesh's vertices merged by position (same triangles, same winding; the export
+    keeps face_normals, so shading is unchanged). psdr's box primitive and OBJ faces export with per-face vertex
+    copies; Mitsuba then sees every triangle edge as an open boundary (perimeter) edge, which its projective
+    integrators sample as a discontinuity on its own, so an edge shared by two faces is counted twice."""
+    d = os.path.dirname(os.path.abspath(xml_path))
+    tree = ET.parse(xml_path)
+    for sh in tree.getroot().findall("shape"):
+        fn = sh.find("string[@name='filename']")
+        if sh.get("type") != "ply" or fn is None:
+            continue
+        m = mi.load_dict({"type": "ply", "filename": os.path.join(d, fn.get("value")), "face_normals": True})
+        mp = mi.traverse(m)
+        v = np.array(mp["vertex_positions"], dtype=np.float64).reshape(-1, 3)
+        f = np.array(mp["faces"], dtype=np.int64).reshape(-1, 3)
+        uniq, inv = np.unique(np.round(v, 5), axis=0, return_inverse=True)
+        f2 = inv.reshape(-1)[f]
+        mesh = mi.Mesh(sh.get("id"), len(uniq), len(f2), has_vertex_normals=False, has_vertex_texcoords=False)
+        wp = mi.traverse(mesh)
+        wp["vertex_positions"] = mi.Float(uniq.astype(np.float32).reshape(-1))
+        wp["faces"] = mi.UInt32(f2.astype(np.uint32).reshape(-1))
+        wp.update()
+        rel = f"meshes/{sh.get('id')}_welded.ply"
+        mesh.write_ply(os.path.join(d, rel))
+        fn.set("value", rel)
+    out = os.path.join(d, "scene_welded.xml")
+    tree.write(out)
+    return mi.load_file(out)
 
 
 class Params:
@@ -162,6 +195,7 @@ def main():
         }), flush=True)
 
     state = Params(scene, cfg["params"])
+    welded = None
     if cfg.get("fd"):
         fd = cfg["fd"]
         path = mi.load_dict({"type": "path", "max_depth": cfg["max_depth"], "rr_depth": cfg["rr_depth"]})
@@ -185,15 +219,21 @@ def main():
                   flush=True)
     for spec in cfg["integrators"]:
         name = spec["label"]
-        props = {k: v for k, v in spec.items() if k not in ("label", "spp", "seeds")}
+        props = {k: v for k, v in spec.items() if k not in ("label", "spp", "seeds", "weld")}
+        sc, st = scene, state
+        if spec.get("weld"):
+            if welded is None:
+                w_scene = welded_scene(cfg["scene"])
+                welded = (w_scene, Params(w_scene, cfg["params"]))
+            sc, st = welded
         integrator = mi.load_dict({"max_depth": cfg["max_depth"], "rr_depth": cfg["rr_depth"], **props})
         for i, spp in enumerate(spec["spp"]):
             if i == 0:
-                cold, loss, grads = iteration(scene, state, integrator, target, spp, 1_000_003)
+                cold, loss, grads = iteration(sc, st, integrator, target, spp, 1_000_003)
                 print(json.dumps({"event": "cold", "integrator": name, "spp": spp, "seconds": cold, "loss": loss,
                                   "grad": grads}), flush=True)
             for seed in spec.get("seeds", cfg["seeds"]):
-                secs, loss, grads = iteration(scene, state, integrator, target, spp, seed)
+                secs, loss, grads = iteration(sc, st, integrator, target, spp, seed)
                 print(json.dumps({"event": "iteration", "integrator": name, "spp": spp, "seed": seed,
                                   "seconds": secs, "loss": loss, "grad": grads}), flush=True)
 

@@ -156,15 +156,21 @@ fn cube_case(dir: &Path, lift: f32, width: u32, height: u32, large: bool, quick:
         ]
     };
     let spps: Vec<u32> = if large { vec![16] } else { vec![4, 16, 64] };
+    // "weld": Mitsuba renders a copy of the export whose meshes have merged vertices (see mitsuba_grad.py
+    // welded_scene): psdr's box exports per-face vertex copies, and Mitsuba's projective integrators then count
+    // every edge shared by two faces twice. The unwelded export is kept as a reference series.
     let mut mitsuba_integrators = vec![
-        json!({"label": "prb_projective_noguide", "type": "prb_projective", "guiding": "none", "spp": spps}),
-        json!({"label": "direct_projective", "type": "direct_projective", "spp": spps}),
+        json!({"label": "prb_projective_noguide", "type": "prb_projective", "guiding": "none", "weld": true, "spp": spps}),
+        json!({"label": "direct_projective", "type": "direct_projective", "weld": true, "spp": spps}),
+        json!({"label": "prb_projective_noguide_unwelded", "type": "prb_projective", "guiding": "none", "spp": spps}),
     ];
     if !large {
         // Mitsuba's default (octree-guided indirect boundary) costs ~20 s per iteration at this size, mostly the
         // guiding octree; measured at 16 spp and 2 seeds only.
-        mitsuba_integrators
-            .insert(0, json!({"label": "prb_projective", "type": "prb_projective", "spp": [16], "seeds": [0, 1]}));
+        mitsuba_integrators.insert(
+            0,
+            json!({"label": "prb_projective", "type": "prb_projective", "weld": true, "spp": [16], "seeds": [0, 1]}),
+        );
     }
     Ok(Case {
         name: name.into(),
@@ -669,11 +675,12 @@ struct Point {
 }
 
 /// Series colours by method (psdr first).
-const SERIES: [(&str, &str, &str); 5] = [
+const SERIES: [(&str, &str, &str); 6] = [
     ("psdr", "#1f77b4", "psdr (analytic_gradient)"),
-    ("mitsuba_prb_projective", "#d62728", "Mitsuba prb_projective (octree guiding)"),
-    ("mitsuba_prb_projective_noguide", "#ff7f0e", "Mitsuba prb_projective, guiding none"),
-    ("mitsuba_direct_projective", "#9467bd", "Mitsuba direct_projective"),
+    ("mitsuba_prb_projective", "#d62728", "Mitsuba prb_projective (octree guiding), welded"),
+    ("mitsuba_prb_projective_noguide", "#ff7f0e", "Mitsuba prb_projective, guiding none, welded"),
+    ("mitsuba_direct_projective", "#9467bd", "Mitsuba direct_projective, welded"),
+    ("mitsuba_prb_projective_noguide_unwelded", "#8c564b", "Mitsuba prb_projective, guiding none, export as is"),
     ("mitsuba_prb", "#2ca02c", "Mitsuba prb"),
 ];
 
@@ -818,7 +825,7 @@ relative standard error.</text>\n"
     }
     let ly = h - 70.0 + 10.0;
     for (i, (_, colour, name)) in SERIES.iter().enumerate() {
-        let (x, y) = (20.0 + (i % 3) as f64 * 300.0, ly + (i / 3) as f64 * 18.0);
+        let (x, y) = (20.0 + (i % 2) as f64 * 460.0, ly + (i / 2) as f64 * 18.0);
         let _ = writeln!(
             s,
             "<circle cx=\"{x}\" cy=\"{}\" r=\"4\" fill=\"{colour}\"/><text x=\"{}\" y=\"{}\">{name}</text>",
