@@ -13,26 +13,12 @@ use psdr_materials::{TextureTransform, TextureView};
 #[test]
 fn renderer_and_library_lookups_agree() {
     let (w, h) = (16u32, 12u32);
-    let texels: Vec<f32> = (0..w * h * 3)
-        .map(|i| (i.wrapping_mul(2654435761) >> 8) as f32 / 16777216.0)
-        .collect();
-    let gpu = TextureGpu {
-        offset: 0,
-        width: w,
-        height: h,
-        channels: 3,
-    };
-    let view = TextureView {
-        width: w as usize,
-        height: h as usize,
-        channels: 3,
-        texels: &texels,
-    };
+    let texels: Vec<f32> = (0..w * h * 3).map(|i| (i.wrapping_mul(2654435761) >> 8) as f32 / 16777216.0).collect();
+    let gpu = TextureGpu { offset: 0, width: w, height: h, channels: 3 };
+    let view = TextureView { width: w as usize, height: h as usize, channels: 3, texels: &texels };
     let mut worst = 0.0f64;
     for k in 0..500u32 {
-        let r = |m: u32| {
-            (k.wrapping_mul(7919).wrapping_add(m.wrapping_mul(104729)) % 1000) as f32 / 1000.0
-        };
+        let r = |m: u32| (k.wrapping_mul(7919).wrapping_add(m.wrapping_mul(104729)) % 1000) as f32 / 1000.0;
         let uvt = UvTransform {
             scale: Vec2::new(0.5 + 7.5 * r(1), 0.5 + 7.5 * r(2)),
             rotation_deg: 360.0 * r(3) - 180.0,
@@ -57,8 +43,5 @@ fn renderer_and_library_lookups_agree() {
         }
     }
     eprintln!("max |renderer - library| = {worst:.2e}");
-    assert!(
-        worst < 1e-3,
-        "renderer and library lookups differ by {worst}"
-    );
+    assert!(worst < 1e-3, "renderer and library lookups differ by {worst}");
 }
