@@ -1,0 +1,312 @@
+//! Primal render speed against image error, psdr's CPU renderer vs Mitsuba 3 LLVM on the exported scene:
+//! `cargo run -p psdr-benchmarks --release --bin bench_render [-- --reps N --ref-spp N --no-mitsuba --quick]`
+//! (Mitsuba needs `benchmarks/setup_mitsuba.sh`; DRJIT_LIBLLVM_PATH defaults to Debian's libLLVM 19).
+//!
+//! For the example room at 256x192 and 512x384, 16 and 64 spp:
+//! - psdr: a warm-up render (its time is the "cold" column), then the best of N timed renders; Mrays/s from
+//!   the rays the renderer counts (camera, bounce and shadow rays).
+//! - Mitsuba: the scene is exported with `psdr export` at that size; `mitsuba_render.py` times the first render
+//!   of the process (cold: tracing + JIT compile or kernel-cache load) and the best of N warm renders.
+//! - Error: RMSE (and relative L1) of each image against psdr at `ref-spp` spp and 512x384 with another seed,
+//!   box-downsampled 2x2 for 256x192. Mitsuba's error therefore includes any model mismatch of the export.
+//! - Agreement: Mitsuba at `ref-spp` spp and 256x192 against the same reference, next to an independent psdr
+//!   render at the same spp (its difference is the noise level).
+//!
+//! Writes benchmarks/results/render.csv and render.svg (seconds, log, against RMSE, log).
+
+use anyhow::{bail, Context};
+use psdr::output::read_exr_rgb;
+use psdr::render::{render_cpu, Frame, SceneData};
+use psdr::scene::{load_scene, Scene};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+const SIZES: [(u32, u32); 2] = [(256, 192), (512, 384)];
+const SPPS: [u32; 2] = [16, 64];
+const REF_SEED: u32 = 1000;
+
+struct Row {
+    renderer: &'static str,
+    width: u32,
+    height: u32,
+    spp: u32,
+    cold_s: f64,
+    seconds: f64,
+    mrays: Option<f64>,
+    rmse: f64,
+    rel_l1: f64,
+}
+
+fn render(scene: &Scene, w: u32, h: u32, spp: u32, seed: u32) -> anyhow::Result<(Frame, f64)> {
+    let mut s = scene.clone();
+    (s.camera.width, s.camera.height, s.settings.spp, s.settings.seed) = (w, h, spp, seed);
+    let d = SceneData::build(&s)?;
+    let t = Instant::now();
+    let f = render_cpu(&d, &s.settings, &|_, _| {});
+    Ok((f, t.elapsed().as_secs_f64()))
+}
+
+/// 2x2 box average of interleaved RGB (a box-filtered render at half size, in expectation).
+fn downsample(rgb: &[f32], w: usize, h: usize) -> Vec<f32> {
+    let (w2, h2) = (w / 2, h / 2);
+    let mut out = vec![0.0; w2 * h2 * 3];
+    for y in 0..h2 {
+        for x in 0..w2 {
+            for c in 0..3 {
+                let at = |dx: usize, dy: usize| rgb[((2 * y + dy) * w + 2 * x + dx) * 3 + c];
+                out[(y * w2 + x) * 3 + c] = 0.25 * (at(0, 0) + at(1, 0) + at(0, 1) + at(1, 1));
+            }
+        }
+    }
+    out
+}
+
+fn rmse(a: &[f32], r: &[f32]) -> f64 {
+    (a.iter().zip(r).map(|(&x, &y)| ((x - y) as f64).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
+}
+
+/// Mean relative difference: sum |a - r| / sum |r| over all channel values.
+fn rel_l1(a: &[f32], r: &[f32]) -> f64 {
+    a.iter().zip(r).map(|(&x, &y)| (x - y).abs() as f64).sum::<f64>() / r.iter().map(|&y| y.abs() as f64).sum::<f64>()
+}
+
+fn channel_means(a: &[f32]) -> [f64; 3] {
+    let n = (a.len() / 3) as f64;
+    [0, 1, 2].map(|c| a.iter().skip(c).step_by(3).map(|&v| v as f64).sum::<f64>() / n)
+}
+
+struct MitsubaRun {
+    spp: u32,
+    cold_s: f64,
+    warm_s: Option<f64>,
+    image: PathBuf,
+}
+
+/// Exports `scene` at w x h and renders it with mitsuba_render.py at each spp.
+fn mitsuba(scene: &Scene, w: u32, h: u32, spps: &[u32], reps: usize, dir: &Path) -> anyhow::Result<Vec<MitsubaRun>> {
+    let bench = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let python = bench.join(".venv/bin/python");
+    if !python.exists() {
+        bail!("{} not found: run benchmarks/setup_mitsuba.sh first (or pass --no-mitsuba)", python.display());
+    }
+    let mut s = scene.clone();
+    (s.camera.width, s.camera.height) = (w, h);
+    let xml = psdr::export::mitsuba::export_mitsuba(&s, dir)?;
+    let llvm =
+        std::env::var("DRJIT_LIBLLVM_PATH").unwrap_or_else(|_| "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1".into());
+    let out = Command::new(&python)
+        .arg(bench.join("mitsuba_render.py"))
+        .arg(&xml)
+        .arg("--spp")
+        .args(spps.iter().map(|s| s.to_string()))
+        .args(["--reps", &reps.to_string(), "--out-dir"])
+        .arg(dir)
+        .env("DRJIT_LIBLLVM_PATH", llvm)
+        .output()
+        .context("running mitsuba_render.py")?;
+    if !out.status.success() {
+        bail!("mitsuba_render.py failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    }
+    let mut runs = vec![];
+    for line in String::from_utf8_lossy(&out.stdout).lines().filter(|l| l.starts_with('{')) {
+        let v: serde_json::Value = serde_json::from_str(line)?;
+        runs.push(MitsubaRun {
+            spp: v["spp"].as_u64().context("spp")? as u32,
+            cold_s: v["cold_s"].as_f64().context("cold_s")?,
+            warm_s: v["warm_s"].as_f64(),
+            image: PathBuf::from(v["image"].as_str().context("image")?),
+        });
+    }
+    Ok(runs)
+}
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let flag = |name: &str| args.iter().any(|a| a == name);
+    let value = |name: &str, default: u32| -> anyhow::Result<u32> {
+        match args.iter().position(|a| a == name) {
+            Some(i) => Ok(args.get(i + 1).context("missing value")?.parse()?),
+            None => Ok(default),
+        }
+    };
+    let quick = flag("--quick");
+    let reps = value("--reps", if quick { 1 } else { 3 })? as usize;
+    let ref_spp = value("--ref-spp", if quick { 64 } else { 1024 })?;
+    let with_mitsuba = !flag("--no-mitsuba");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
+    let scene = load_scene(&root.join("examples/room/scene.json"))?;
+    let work = root.join("out/bench_render");
+    std::fs::create_dir_all(&work)?;
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+
+    // Reference: psdr at 512x384, ref_spp, another seed; 256x192 is its 2x2 box average.
+    let (wr, hr) = SIZES[1];
+    let (reference, ref_s) = render(&scene, wr, hr, ref_spp, REF_SEED)?;
+    println!("reference {wr}x{hr} {ref_spp} spp: {ref_s:.1} s");
+    let ref_small = downsample(&reference.radiance, wr as usize, hr as usize);
+    let reference_for = |w: u32| if w == wr { &reference.radiance[..] } else { &ref_small[..] };
+
+    let mut rows = vec![];
+    for &(w, h) in &SIZES {
+        for &spp in &SPPS {
+            let (frame, cold) = render(&scene, w, h, spp, 0)?;
+            let best =
+                (0..reps).map(|_| render(&scene, w, h, spp, 0).map(|r| r.1)).collect::<anyhow::Result<Vec<_>>>()?;
+            let secs = best.into_iter().fold(cold, f64::min);
+            let r = reference_for(w);
+            rows.push(Row {
+                renderer: "psdr_cpu",
+                width: w,
+                height: h,
+                spp,
+                cold_s: cold,
+                seconds: secs,
+                mrays: Some(frame.rays as f64 / secs / 1e6),
+                rmse: rmse(&frame.radiance, r),
+                rel_l1: rel_l1(&frame.radiance, r),
+            });
+        }
+        if with_mitsuba {
+            for run in mitsuba(&scene, w, h, &SPPS, reps, &work.join(format!("mitsuba_{w}x{h}")))? {
+                let (_, _, img) = read_exr_rgb(&run.image)?;
+                let r = reference_for(w);
+                rows.push(Row {
+                    renderer: "mitsuba_llvm",
+                    width: w,
+                    height: h,
+                    spp: run.spp,
+                    cold_s: run.cold_s,
+                    seconds: run.warm_s.unwrap_or(run.cold_s),
+                    mrays: None,
+                    rmse: rmse(&img, r),
+                    rel_l1: rel_l1(&img, r),
+                });
+            }
+        }
+    }
+
+    let mut csv = String::from(
+        "renderer,width,height,spp,threads,cold_seconds,seconds,mrays_per_s,rmse_vs_reference,rel_l1_vs_reference\n",
+    );
+    for r in &rows {
+        let mrays = r.mrays.map_or(String::new(), |m| format!("{m:.2}"));
+        csv += &format!(
+            "{},{},{},{},{threads},{:.4},{:.4},{mrays},{:.5},{:.5}\n",
+            r.renderer, r.width, r.height, r.spp, r.cold_s, r.seconds, r.rmse, r.rel_l1
+        );
+        println!(
+            "{:<13} {:>3}x{:<3} {:>3} spp  cold {:7.3} s  best {:7.3} s  {:>6} Mrays/s  rmse {:.5}  rel_l1 {:.4}",
+            r.renderer, r.width, r.height, r.spp, r.cold_s, r.seconds, mrays, r.rmse, r.rel_l1
+        );
+    }
+    for &(w, h) in &SIZES {
+        for &spp in &SPPS {
+            let find = |name: &str| rows.iter().find(|r| r.renderer == name && r.width == w && r.spp == spp);
+            if let (Some(a), Some(b)) = (find("psdr_cpu"), find("mitsuba_llvm")) {
+                println!("{w}x{h} {spp} spp: psdr is {:.2}x as fast as Mitsuba (warm)", b.seconds / a.seconds);
+            }
+        }
+    }
+
+    // Agreement of the two renderers' converged images (256x192), next to psdr's own noise at that spp.
+    if with_mitsuba {
+        let (w, h) = SIZES[0];
+        let run = mitsuba(&scene, w, h, &[ref_spp], 0, &work.join(format!("mitsuba_{w}x{h}_agree")))?;
+        let (_, _, mts) = read_exr_rgb(&run[0].image)?;
+        let (ours, _) = render(&scene, w, h, ref_spp, REF_SEED + 1)?;
+        let r = &ref_small;
+        let fmt = |m: [f64; 3]| format!("({:.5}, {:.5}, {:.5})", m[0], m[1], m[2]);
+        let (cm, co, cr) = (channel_means(&mts), channel_means(&ours.radiance), channel_means(r));
+        println!("agreement at {w}x{h}, {ref_spp} spp, against the reference:");
+        println!("  mitsuba: rel_l1 {:.4}  channel means {}", rel_l1(&mts, r), fmt(cm));
+        println!("  psdr:    rel_l1 {:.4}  channel means {}  (noise level)", rel_l1(&ours.radiance, r), fmt(co));
+        println!("  reference channel means {}", fmt(cr));
+        let rel = |m: [f64; 3]| [0, 1, 2].map(|c| m[c] / cr[c] - 1.0);
+        println!("  channel-mean difference: mitsuba {}  psdr {}", fmt(rel(cm)), fmt(rel(co)));
+    }
+
+    let out = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/render.csv");
+    std::fs::create_dir_all(out.parent().unwrap())?;
+    std::fs::write(&out, &csv)?;
+    std::fs::write(out.with_extension("svg"), chart(&rows, threads))?;
+    println!("wrote {} and {}", out.display(), out.with_extension("svg").display());
+    Ok(())
+}
+
+/// Log-log scatter of seconds (x) against RMSE (y); one polyline per renderer and size, points labelled by spp.
+fn chart(rows: &[Row], threads: usize) -> String {
+    let (x0, y0, pw, ph) = (70.0, 40.0, 520.0, 340.0);
+    let lx = |v: f64| v.log10();
+    let (xmin, xmax) = rows.iter().fold((f64::MAX, f64::MIN), |(a, b), r| (a.min(lx(r.seconds)), b.max(lx(r.seconds))));
+    let (ymin, ymax) = rows.iter().fold((f64::MAX, f64::MIN), |(a, b), r| (a.min(lx(r.rmse)), b.max(lx(r.rmse))));
+    let (xmin, xmax) = (xmin.floor(), xmax.ceil());
+    let (ymin, ymax) = (ymin.floor(), ymax.ceil());
+    let px = |v: f64| x0 + pw * (lx(v) - xmin) / (xmax - xmin);
+    let py = |v: f64| y0 + ph * (1.0 - (lx(v) - ymin) / (ymax - ymin));
+    let mut s = format!(
+        "<svg xmlns='http://www.w3.org/2000/svg' width='{}' height='{}' font-family='sans-serif' font-size='11'>\n\
+         <rect width='100%' height='100%' fill='white'/>\n\
+         <text x='{x0}' y='20' font-size='13'>Example room: render time vs RMSE against a converged reference ({threads} threads)</text>\n\
+         <rect x='{x0}' y='{y0}' width='{pw}' height='{ph}' fill='none' stroke='#888'/>\n",
+        x0 + pw + 170.0,
+        y0 + ph + 50.0
+    );
+    for e in xmin as i32..=xmax as i32 {
+        let x = x0 + pw * (e as f64 - xmin) / (xmax - xmin);
+        s += &format!(
+            "<line x1='{x:.1}' y1='{y0}' x2='{x:.1}' y2='{}' stroke='#eee'/><text x='{x:.1}' y='{}' text-anchor='middle'>1e{e} s</text>\n",
+            y0 + ph,
+            y0 + ph + 16.0
+        );
+    }
+    for e in ymin as i32..=ymax as i32 {
+        let y = y0 + ph * (1.0 - (e as f64 - ymin) / (ymax - ymin));
+        s += &format!(
+            "<line x1='{x0}' y1='{y:.1}' x2='{}' y2='{y:.1}' stroke='#eee'/><text x='{}' y='{:.1}' text-anchor='end'>1e{e}</text>\n",
+            x0 + pw,
+            x0 - 6.0,
+            y + 4.0
+        );
+    }
+    s += &format!(
+        "<text x='{}' y='{}' text-anchor='middle'>seconds per frame (warm, best of N)</text>\n\
+         <text x='16' y='{}' transform='rotate(-90 16 {})' text-anchor='middle'>RMSE vs reference</text>\n",
+        x0 + pw / 2.0,
+        y0 + ph + 36.0,
+        y0 + ph / 2.0,
+        y0 + ph / 2.0
+    );
+    let mut legend_y = y0 + 10.0;
+    for (renderer, colour) in [("psdr_cpu", "#3b6fb6"), ("mitsuba_llvm", "#e07b39")] {
+        for (si, &(w, h)) in SIZES.iter().enumerate() {
+            let pts: Vec<&Row> = rows.iter().filter(|r| r.renderer == renderer && r.width == w).collect();
+            if pts.is_empty() {
+                continue;
+            }
+            let dash = if si == 0 { "" } else { " stroke-dasharray='5 3'" };
+            let line: Vec<String> = pts.iter().map(|r| format!("{:.1},{:.1}", px(r.seconds), py(r.rmse))).collect();
+            s += &format!("<polyline points='{}' fill='none' stroke='{colour}'{dash}/>\n", line.join(" "));
+            for r in &pts {
+                let (x, y) = (px(r.seconds), py(r.rmse));
+                s += &format!(
+                    "<circle cx='{x:.1}' cy='{y:.1}' r='3.5' fill='{colour}'/><text x='{:.1}' y='{:.1}' font-size='9'>{}</text>\n",
+                    x + 5.0,
+                    y - 5.0,
+                    r.spp
+                );
+            }
+            s += &format!(
+                "<line x1='{}' y1='{legend_y}' x2='{}' y2='{legend_y}' stroke='{colour}' stroke-width='2'{dash}/>\
+                 <text x='{}' y='{}'>{renderer} {w}x{h}</text>\n",
+                x0 + pw + 10.0,
+                x0 + pw + 35.0,
+                x0 + pw + 40.0,
+                legend_y + 4.0
+            );
+            legend_y += 18.0;
+        }
+    }
+    s += &format!("<text x='{}' y='{}' font-size='9'>labels: spp</text>\n</svg>\n", x0 + pw + 10.0, legend_y + 6.0);
+    s
+}
