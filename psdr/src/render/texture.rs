@@ -9,29 +9,46 @@ fn wrap(i: i32, n: i32) -> i32 {
     ((i % n) + n) % n
 }
 
-#[inline(always)]
-fn texel(texels: &[f32], t: &TextureGpu, x: i32, y: i32, c: u32) -> f32 {
-    let (w, h) = (t.width as i32, t.height as i32);
-    let idx = (wrap(y, h) * w + wrap(x, w)) as u32 * t.channels + c.min(t.channels - 1);
-    texels[(t.offset + idx) as usize]
+/// The 2x2 texels around a uv (texel indices, row-major, before the channel) and the bilinear weights.
+/// Computed once per lookup and shared by its channels (the integer wraps are the costly part).
+#[derive(Clone, Copy)]
+pub struct Footprint {
+    pub texel: [u32; 4],
+    pub fx: f32,
+    pub fy: f32,
 }
 
-/// Bilinear sample of channel `c` (clamped to the texture's channel count) at uv.
 #[inline(always)]
-pub fn texture_sample(texels: &[f32], t: &TextureGpu, uv: Vec2, c: u32) -> f32 {
+pub fn texture_footprint(t: &TextureGpu, uv: Vec2) -> Footprint {
     let x = uv.x * t.width as f32 - 0.5;
     let y = (1.0 - uv.y) * t.height as f32 - 0.5;
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
     let (ix, iy) = (x0 as i32, y0 as i32);
-    let a = texel(texels, t, ix, iy, c);
-    let b = texel(texels, t, ix + 1, iy, c);
-    let d = texel(texels, t, ix, iy + 1, c);
-    let e = texel(texels, t, ix + 1, iy + 1, c);
+    let (w, h) = (t.width as i32, t.height as i32);
+    let (xa, xb) = (wrap(ix, w), wrap(ix + 1, w));
+    let (ya, yb) = (wrap(iy, h) * w, wrap(iy + 1, h) * w);
+    Footprint { texel: [(ya + xa) as u32, (ya + xb) as u32, (yb + xa) as u32, (yb + xb) as u32], fx, fy }
+}
+
+/// Bilinear blend of channel `c` (clamped to the texture's channel count) over a footprint.
+#[inline(always)]
+pub fn texture_blend(texels: &[f32], t: &TextureGpu, f: &Footprint, c: u32) -> f32 {
+    let c = c.min(t.channels - 1);
+    let at = |i: usize| texels[(t.offset + f.texel[i] * t.channels + c) as usize];
+    let (a, b, d, e) = (at(0), at(1), at(2), at(3));
+    let (fx, fy) = (f.fx, f.fy);
     (a * (1.0 - fx) + b * fx) * (1.0 - fy) + (d * (1.0 - fx) + e * fx) * fy
+}
+
+/// Bilinear sample of channel `c` (clamped to the texture's channel count) at uv.
+#[inline(always)]
+pub fn texture_sample(texels: &[f32], t: &TextureGpu, uv: Vec2, c: u32) -> f32 {
+    texture_blend(texels, t, &texture_footprint(t, uv), c)
 }
 
 #[inline(always)]
 pub fn texture_sample_rgb(texels: &[f32], t: &TextureGpu, uv: Vec2) -> Vec3 {
-    Vec3::new(texture_sample(texels, t, uv, 0), texture_sample(texels, t, uv, 1), texture_sample(texels, t, uv, 2))
+    let f = texture_footprint(t, uv);
+    Vec3::new(texture_blend(texels, t, &f, 0), texture_blend(texels, t, &f, 1), texture_blend(texels, t, &f, 2))
 }
