@@ -65,15 +65,22 @@ pub fn intersect_triangle(tri: &TriangleGeom, origin: Vec3, dir: Vec3) -> Option
 pub fn trace_closest(nodes: &[BvhNode], tris: &[TriangleGeom], origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
     let inv_dir = safe_inverse(dir);
     let mut best = Hit { t: t_max, u: 0.0, v: 0.0, triangle: u32::MAX };
+    // Each stack entry keeps the entry distance of its box, computed when its parent was visited: a popped
+    // node is skipped when a hit found since then is nearer (the same test as re-intersecting its box).
     let mut stack = [0u32; BVH_STACK_SIZE];
+    let mut stack_t = [0.0f32; BVH_STACK_SIZE];
     let mut sp = 1usize;
     stack[0] = 0;
+    stack_t[0] = intersect_aabb(&nodes[0], origin, inv_dir, best.t);
+    if stack_t[0] == f32::INFINITY {
+        return None;
+    }
     while sp > 0 {
         sp -= 1;
-        let node = &nodes[stack[sp] as usize];
-        if intersect_aabb(node, origin, inv_dir, best.t) == f32::INFINITY {
+        if stack_t[sp] > best.t {
             continue;
         }
+        let node = &nodes[stack[sp] as usize];
         if node.prim_count > 0 {
             for i in node.first_index..node.first_index + node.prim_count {
                 if let Some((t, u, v)) = intersect_triangle(&tris[i as usize], origin, dir) {
@@ -90,11 +97,11 @@ pub fn trace_closest(nodes: &[BvhNode], tris: &[TriangleGeom], origin: Vec3, dir
             let tr = intersect_aabb(&nodes[r as usize], origin, inv_dir, best.t);
             let (near, far, t_near, t_far) = if tl <= tr { (l, r, tl, tr) } else { (r, l, tr, tl) };
             if t_far != f32::INFINITY {
-                stack[sp] = far;
+                (stack[sp], stack_t[sp]) = (far, t_far);
                 sp += 1;
             }
             if t_near != f32::INFINITY {
-                stack[sp] = near;
+                (stack[sp], stack_t[sp]) = (near, t_near);
                 sp += 1;
             }
         }
@@ -105,15 +112,16 @@ pub fn trace_closest(nodes: &[BvhNode], tris: &[TriangleGeom], origin: Vec3, dir
 /// True when anything blocks the segment (0, t_max).
 pub fn trace_occluded(nodes: &[BvhNode], tris: &[TriangleGeom], origin: Vec3, dir: Vec3, t_max: f32) -> bool {
     let inv_dir = safe_inverse(dir);
+    if intersect_aabb(&nodes[0], origin, inv_dir, t_max) == f32::INFINITY {
+        return false;
+    }
+    // Only nodes whose box the segment enters are pushed, so a popped node needs no second box test.
     let mut stack = [0u32; BVH_STACK_SIZE];
     let mut sp = 1usize;
     stack[0] = 0;
     while sp > 0 {
         sp -= 1;
         let node = &nodes[stack[sp] as usize];
-        if intersect_aabb(node, origin, inv_dir, t_max) == f32::INFINITY {
-            continue;
-        }
         if node.prim_count > 0 {
             for i in node.first_index..node.first_index + node.prim_count {
                 if let Some((t, _, _)) = intersect_triangle(&tris[i as usize], origin, dir) {
@@ -123,9 +131,16 @@ pub fn trace_occluded(nodes: &[BvhNode], tris: &[TriangleGeom], origin: Vec3, di
                 }
             }
         } else {
-            stack[sp] = node.first_index;
-            stack[sp + 1] = node.first_index + 1;
-            sp += 2;
+            // Test both child boxes here and push only those the segment enters (any order finds a blocker).
+            let l = node.first_index;
+            if intersect_aabb(&nodes[l as usize], origin, inv_dir, t_max) != f32::INFINITY {
+                stack[sp] = l;
+                sp += 1;
+            }
+            if intersect_aabb(&nodes[l as usize + 1], origin, inv_dir, t_max) != f32::INFINITY {
+                stack[sp] = l + 1;
+                sp += 1;
+            }
         }
     }
     false
