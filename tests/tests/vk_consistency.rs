@@ -14,7 +14,9 @@
 //! pixels. Measured on lavapipe: depth, normal, albedo, coverage and ids bit-identical; radiance 99.96 % within
 //! 1e-4, worst pixel 2e-4 relative.
 
-use psdr::backend::{layout_check_spirv, Backend, CpuBackend, VkBackend};
+use psdr::backend::{
+    create_backend, create_backend_on, layout_check_spirv, Backend, BackendKind, CpuBackend, VkBackend,
+};
 use psdr::render::layout::*;
 use psdr::render::{Frame, SceneData};
 use psdr::scene::{load_scene, sphere_mesh, Emitter, Material, MeshPart, Object, Pose, Scene};
@@ -48,6 +50,7 @@ fn room_with_large_mesh_and_lights() -> Scene {
     let mut s = room(48, 36, 4);
     let dir = std::env::temp_dir().join(format!("psdr_vk_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
+    let _cleanup = RemoveOnDrop(dir.clone());
     let exr = dir.join("ramp.exr");
     let ramp: Vec<f32> = (0..64).map(|i| i as f32 / 64.0).collect();
     psdr::output::write_exr_channels(
@@ -77,6 +80,36 @@ fn room_with_large_mesh_and_lights() -> Scene {
     s
 }
 
+struct RemoveOnDrop(std::path::PathBuf);
+
+impl Drop for RemoveOnDrop {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// What a scene exercises, so each test's claim about its coverage is checked rather than assumed.
+#[derive(Debug, Default)]
+struct Features {
+    triangles: usize,
+    emitters: usize,
+    normal_mapped: bool,
+    textured_from: Vec<String>,
+}
+
+fn features(s: &Scene, d: &SceneData) -> Features {
+    let mut textured_from: Vec<String> =
+        s.textures.iter().filter_map(|t| t.path.as_ref()?.extension()?.to_str().map(str::to_ascii_lowercase)).collect();
+    textured_from.sort();
+    textured_from.dedup();
+    Features {
+        triangles: d.triangles.len(),
+        emitters: d.emitters.len(),
+        normal_mapped: d.materials.iter().any(|m| m.normal_tex != NONE),
+        textured_from,
+    }
+}
+
 fn render_both(vk: &mut VkBackend, s: &Scene) -> (Frame, Frame) {
     let d = SceneData::build(s).unwrap();
     let cpu = CpuBackend.render(&d, &s.settings, &|_, _| {}).unwrap();
@@ -96,23 +129,24 @@ fn assert_no_validation_errors(vk: &VkBackend) {
     assert!(errors.is_empty(), "validation errors: {errors:?}");
 }
 
-/// Fraction of values within 1e-4 relative (+1e-6 absolute), and the worst relative difference.
-fn agreement(cpu: &[f32], gpu: &[f32]) -> (f64, f64) {
+/// Fraction of values within 1e-4 relative (+1e-6 absolute), the worst relative and the worst absolute difference.
+fn agreement(cpu: &[f32], gpu: &[f32]) -> (f64, f64, f64) {
     assert_eq!(cpu.len(), gpu.len());
     let mut ok = 0;
-    let mut worst = 0.0f64;
+    let (mut worst_rel, mut worst_abs) = (0.0f64, 0.0f64);
     for (&c, &g) in cpu.iter().zip(gpu) {
         let diff = (c - g).abs() as f64;
-        let rel = diff / (c.abs() as f64).max(1e-6);
-        worst = worst.max(rel);
+        worst_rel = worst_rel.max(diff / (c.abs() as f64).max(1e-6));
+        worst_abs = worst_abs.max(diff);
         if diff <= 1e-4 * c.abs() as f64 + 1e-6 {
             ok += 1;
         }
     }
-    (ok as f64 / cpu.len().max(1) as f64, worst)
+    (ok as f64 / cpu.len().max(1) as f64, worst_rel, worst_abs)
 }
 
 fn check_frames(name: &str, cpu: &Frame, gpu: &Frame, spp: u32) {
+    assert_eq!((cpu.width, cpu.height, cpu.object_count), (gpu.width, gpu.height, gpu.object_count));
     let (n, m) = (cpu.radiance.len() as f64, |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>());
     let (mc, mg) = (m(&cpu.radiance) / n, m(&gpu.radiance) / n);
     eprintln!("{name}: mean radiance cpu {mc:.6} gpu {mg:.6}");
@@ -124,8 +158,11 @@ fn check_frames(name: &str, cpu: &Frame, gpu: &Frame, spp: u32) {
         ("albedo", &cpu.albedo, &gpu.albedo),
         ("coverage", &cpu.coverage, &gpu.coverage),
     ] {
-        let (frac, worst) = agreement(c, g);
-        eprintln!("{name}: {aov}: {:.4} % within 1e-4, worst relative difference {worst:.2e}", 100.0 * frac);
+        let (frac, rel, abs) = agreement(c, g);
+        eprintln!(
+            "{name}: {aov}: {:.4} % within 1e-4, worst difference {rel:.2e} relative, {abs:.2e} absolute",
+            100.0 * frac
+        );
         assert!(frac >= 0.999, "{name}: only {:.3} % of {aov} values agree within 1e-4", 100.0 * frac);
     }
     // Any disagreement is confined to single paths: no pixel differs by more than one path could contribute.
@@ -138,12 +175,17 @@ fn check_frames(name: &str, cpu: &Frame, gpu: &Frame, spp: u32) {
     eprintln!("{name}: ids {:.4} % identical", 100.0 * frac);
     assert!(frac >= 0.999, "{name}: only {:.3} % of object ids agree", 100.0 * frac);
     assert!(gpu.is_finite(), "{name}: the GPU frame has non-finite values");
+    // Rays differ only where a path does.
+    let ray_diff = cpu.rays.abs_diff(gpu.rays);
+    assert!(ray_diff as f64 <= 1e-3 * cpu.rays as f64, "{name}: ray counts {} vs {}", cpu.rays, gpu.rays);
 }
 
 #[test]
 fn example_room_agrees_with_the_cpu() {
     let Some(mut vk) = vk() else { return };
     let s = room(64, 48, 8);
+    let f = features(&s, &SceneData::build(&s).unwrap());
+    assert!(f.normal_mapped && f.textured_from.contains(&"png".to_string()), "{f:?}");
     let (cpu, gpu) = render_both(&mut vk, &s);
     check_frames("room", &cpu, &gpu, 8);
 }
@@ -152,6 +194,9 @@ fn example_room_agrees_with_the_cpu() {
 fn large_mesh_several_lights_exr_texture_and_deep_paths_agree() {
     let Some(mut vk) = vk() else { return };
     let s = room_with_large_mesh_and_lights();
+    let f = features(&s, &SceneData::build(&s).unwrap());
+    assert!(f.triangles > 50_000 && f.emitters >= 2 && f.textured_from.contains(&"exr".to_string()), "{f:?}");
+    assert!(s.settings.max_depth >= 4, "deep paths");
     let (cpu, gpu) = render_both(&mut vk, &s);
     check_frames("large mesh", &cpu, &gpu, s.settings.spp);
 }
@@ -274,4 +319,48 @@ fn shared_struct_layouts_round_trip_through_a_kernel() {
     for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
         assert_eq!(g, e, "word {i}: kernel read {g:#x}, Rust wrote {e:#x}");
     }
+}
+
+/// The device can be picked by a part of its name; a wrong name, or a name given to the CPU backend, is an error
+/// that says what was asked for.
+#[test]
+fn the_device_is_picked_by_name() {
+    let Some(vk) = vk() else { return };
+    let name = vk.context().capabilities().device_name.clone();
+    let part = name.split_whitespace().next().unwrap().to_uppercase();
+    match create_backend_on(BackendKind::Vk, Some(&part)) {
+        Ok(b) => assert!(b.name().contains(&name), "asked for {part}, got {}", b.name()),
+        Err(e) => panic!("asked for {part} (of {name}): {e}"),
+    }
+    let Err(e) = create_backend_on(BackendKind::Vk, Some("no-such-gpu-3f9a")) else { panic!("a device was invented") };
+    assert!(e.to_string().contains("no-such-gpu-3f9a"), "{e}");
+    let Err(e) = create_backend_on(BackendKind::Cpu, Some("llvmpipe")) else { panic!("the cpu backend took a device") };
+    assert!(e.to_string().contains("cpu"), "{e}");
+}
+
+/// Without any Vulkan driver the vk backend is an error that says what to install, never a panic. Runs in a child
+/// process of this test binary (with no driver visible to the loader) so the other tests keep their device.
+#[test]
+fn no_vulkan_driver_is_an_error_naming_the_package() {
+    const CHILD: &str = "PSDR_VK_TEST_NO_DRIVER_CHILD";
+    if std::env::var_os(CHILD).is_some() {
+        match create_backend(BackendKind::Vk) {
+            Ok(b) => panic!("got a backend with no driver: {}", b.name()),
+            Err(e) => {
+                assert!(e.to_string().contains("mesa-vulkan-drivers"), "the error does not say what to install: {e}")
+            }
+        }
+        return;
+    }
+    let no_icd = "/nonexistent/psdr-no-icd.json";
+    let out = std::process::Command::new(std::env::current_exe().unwrap())
+        .args(["--exact", "no_vulkan_driver_is_an_error_naming_the_package", "--nocapture", "--test-threads=1"])
+        .env(CHILD, "1")
+        .env("VK_ICD_FILENAMES", no_icd)
+        .env("VK_DRIVER_FILES", no_icd)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "child failed:\n{text}");
+    assert!(text.contains("1 passed"), "the child ran no test:\n{text}");
 }

@@ -39,9 +39,18 @@ impl std::str::FromStr for BackendKind {
 }
 
 pub fn create_backend(kind: BackendKind) -> Result<Box<dyn Backend>> {
-    match kind {
-        BackendKind::Cpu => Ok(Box::new(CpuBackend)),
-        BackendKind::Vk => Ok(Box::new(VkBackend::new(None)?)),
+    create_backend_on(kind, None)
+}
+
+/// Like [`create_backend`], on the GPU whose name contains `device` (case-insensitive; `None`: `PSDR_VK_DEVICE`,
+/// else the best device). The CPU backend has one device and rejects a name rather than ignoring it.
+pub fn create_backend_on(kind: BackendKind, device: Option<&str>) -> Result<Box<dyn Backend>> {
+    match (kind, device) {
+        (BackendKind::Cpu, None) => Ok(Box::new(CpuBackend)),
+        (BackendKind::Cpu, Some(name)) => {
+            Err(Error::Invalid(format!("device \"{name}\" was given but the cpu backend has no devices to pick")))
+        }
+        (BackendKind::Vk, device) => Ok(Box::new(VkBackend::new(device)?)),
     }
 }
 

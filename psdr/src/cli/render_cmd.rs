@@ -1,6 +1,6 @@
-//! `psdr render SCENE -o OUT.exr [--spp N] [--seed S] [--aov depth,id,mask,normal,albedo] [--backend cpu|vk]`
+//! `psdr render SCENE -o OUT.exr [--spp N] [--seed S] [--aov LIST] [--backend cpu|vk] [--device GPU]`
 
-use crate::backend::{create_backend, BackendKind};
+use crate::backend::{create_backend_on, BackendKind};
 use crate::output::{write_frame, Aov};
 use crate::render::SceneData;
 use crate::scene::load_scene;
@@ -31,6 +31,10 @@ pub struct RenderArgs {
     /// Render backend.
     #[arg(long, default_value = "cpu")]
     backend: BackendKind,
+    /// GPU to render on (vk backend): a case-insensitive part of its name, e.g. "llvmpipe"; default: the
+    /// PSDR_VK_DEVICE environment variable, else the fastest device.
+    #[arg(long)]
+    device: Option<String>,
     /// Hide the progress bar.
     #[arg(long)]
     quiet: bool,
@@ -50,7 +54,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let t_build = Instant::now();
     let data = SceneData::build(&scene)?;
     let build_s = t_build.elapsed().as_secs_f64();
-    let mut backend = create_backend(a.backend)?;
+    let mut backend = create_backend_on(a.backend, a.device.as_deref())?;
     let bar = if a.quiet { ProgressBar::hidden() } else { ProgressBar::new(scene.camera.height as u64) };
     bar.set_style(ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len}").unwrap());
     let t = Instant::now();
