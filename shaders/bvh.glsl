@@ -64,15 +64,22 @@ bool intersect_triangle(TriangleGeom tri, vec3 origin, vec3 dir, out vec3 tuv) {
 Hit trace_closest(vec3 origin, vec3 dir, float t_max) {
     vec3 inv_dir = safe_inverse(dir);
     Hit best = Hit(t_max, 0.0, 0.0, NONE);
+    // Each stack entry keeps the entry distance of its box, computed when its parent was visited: a popped
+    // node is skipped when a hit found since then is nearer (the same test as re-intersecting its box).
     uint stack[BVH_STACK_SIZE];
+    float stack_t[BVH_STACK_SIZE];
     uint sp = 1u;
     stack[0] = 0u;
+    stack_t[0] = intersect_aabb(nodes[0], origin, inv_dir, best.t);
+    if (stack_t[0] == INFINITY) {
+        return best;
+    }
     while (sp > 0u) {
         sp -= 1u;
-        BvhNode node = nodes[stack[sp]];
-        if (intersect_aabb(node, origin, inv_dir, best.t) == INFINITY) {
+        if (stack_t[sp] > best.t) {
             continue;
         }
+        BvhNode node = nodes[stack[sp]];
         if (node.prim_count > 0u) {
             for (uint i = node.first_index; i < node.first_index + node.prim_count; i++) {
                 vec3 tuv;
@@ -94,10 +101,12 @@ Hit trace_closest(vec3 origin, vec3 dir, float t_max) {
             float t_far = tl <= tr ? tr : tl;
             if (t_far != INFINITY) {
                 stack[sp] = far_;
+                stack_t[sp] = t_far;
                 sp += 1u;
             }
             if (t_near != INFINITY) {
                 stack[sp] = near_;
+                stack_t[sp] = t_near;
                 sp += 1u;
             }
         }
@@ -108,15 +117,16 @@ Hit trace_closest(vec3 origin, vec3 dir, float t_max) {
 // True when anything blocks the segment (0, t_max).
 bool trace_occluded(vec3 origin, vec3 dir, float t_max) {
     vec3 inv_dir = safe_inverse(dir);
+    if (intersect_aabb(nodes[0], origin, inv_dir, t_max) == INFINITY) {
+        return false;
+    }
+    // Only nodes whose box the segment enters are pushed, so a popped node needs no second box test.
     uint stack[BVH_STACK_SIZE];
     uint sp = 1u;
     stack[0] = 0u;
     while (sp > 0u) {
         sp -= 1u;
         BvhNode node = nodes[stack[sp]];
-        if (intersect_aabb(node, origin, inv_dir, t_max) == INFINITY) {
-            continue;
-        }
         if (node.prim_count > 0u) {
             for (uint i = node.first_index; i < node.first_index + node.prim_count; i++) {
                 vec3 tuv;
@@ -127,9 +137,16 @@ bool trace_occluded(vec3 origin, vec3 dir, float t_max) {
                 }
             }
         } else {
-            stack[sp] = node.first_index;
-            stack[sp + 1u] = node.first_index + 1u;
-            sp += 2u;
+            // Test both child boxes here and push only those the segment enters (any order finds a blocker).
+            uint l = node.first_index;
+            if (intersect_aabb(nodes[l], origin, inv_dir, t_max) != INFINITY) {
+                stack[sp] = l;
+                sp += 1u;
+            }
+            if (intersect_aabb(nodes[l + 1u], origin, inv_dir, t_max) != INFINITY) {
+                stack[sp] = l + 1u;
+                sp += 1u;
+            }
         }
     }
     return false;

@@ -8,14 +8,15 @@ int wrap(int i, int n) {
     return ((i % n) + n) % n;
 }
 
-float texel(TextureGpu t, int x, int y, uint c) {
-    int w = int(t.width);
-    int h = int(t.height);
-    uint idx = uint(wrap(y, h) * w + wrap(x, w)) * t.channels + min(c, t.channels - 1u);
-    return texels[t.offset + idx];
-}
+// The 2x2 texels around a uv (texel indices, row-major, before the channel) and the bilinear weights.
+// Computed once per lookup and shared by its channels (the integer wraps are the costly part).
+struct Footprint {
+    uvec4 texel;
+    float fx;
+    float fy;
+};
 
-float texture_sample(TextureGpu t, vec2 uv, uint c) {
+Footprint texture_footprint(TextureGpu t, vec2 uv) {
     float x = uv.x * float(t.width) - 0.5;
     float y = (1.0 - uv.y) * float(t.height) - 0.5;
     float x0 = floor(x);
@@ -24,15 +25,35 @@ float texture_sample(TextureGpu t, vec2 uv, uint c) {
     float fy = y - y0;
     int ix = int(x0);
     int iy = int(y0);
-    float a = texel(t, ix, iy, c);
-    float b = texel(t, ix + 1, iy, c);
-    float d = texel(t, ix, iy + 1, c);
-    float e = texel(t, ix + 1, iy + 1, c);
+    int w = int(t.width);
+    int h = int(t.height);
+    int xa = wrap(ix, w);
+    int xb = wrap(ix + 1, w);
+    int ya = wrap(iy, h) * w;
+    int yb = wrap(iy + 1, h) * w;
+    return Footprint(uvec4(uint(ya + xa), uint(ya + xb), uint(yb + xa), uint(yb + xb)), fx, fy);
+}
+
+// Bilinear blend of channel c (clamped to the texture's channel count) over a footprint.
+float texture_blend(TextureGpu t, Footprint f, uint c_) {
+    uint c = min(c_, t.channels - 1u);
+    float a = texels[t.offset + f.texel.x * t.channels + c];
+    float b = texels[t.offset + f.texel.y * t.channels + c];
+    float d = texels[t.offset + f.texel.z * t.channels + c];
+    float e = texels[t.offset + f.texel.w * t.channels + c];
+    float fx = f.fx;
+    float fy = f.fy;
     return (a * (1.0 - fx) + b * fx) * (1.0 - fy) + (d * (1.0 - fx) + e * fx) * fy;
 }
 
+// Bilinear sample of channel c (clamped to the texture's channel count) at uv.
+float texture_sample(TextureGpu t, vec2 uv, uint c) {
+    return texture_blend(t, texture_footprint(t, uv), c);
+}
+
 vec3 texture_sample_rgb(TextureGpu t, vec2 uv) {
-    return vec3(texture_sample(t, uv, 0u), texture_sample(t, uv, 1u), texture_sample(t, uv, 2u));
+    Footprint f = texture_footprint(t, uv);
+    return vec3(texture_blend(t, f, 0u), texture_blend(t, f, 1u), texture_blend(t, f, 2u));
 }
 
 #endif
