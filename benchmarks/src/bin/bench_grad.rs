@@ -326,8 +326,11 @@ fn write_f32(path: &Path, v: &[f32]) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Runs mitsuba_grad.py on the exported case; returns (integrator label, spp) -> runs, and the primal check.
-fn run_mitsuba(case: &Case, dir: &Path, reference: &[f32]) -> anyhow::Result<(Vec<(String, u32, Runs)>, Value)> {
+/// Mitsuba's runs by (integrator label, spp).
+type MitsubaRuns = Vec<(String, u32, Runs)>;
+
+/// Runs mitsuba_grad.py on the exported case; returns its runs and the primal check.
+fn run_mitsuba(case: &Case, dir: &Path, reference: &[f32]) -> anyhow::Result<(MitsubaRuns, Value)> {
     let bench = Path::new(env!("CARGO_MANIFEST_DIR"));
     let python = bench.join(".venv/bin/python");
     if !python.exists() {
@@ -362,7 +365,7 @@ fn run_mitsuba(case: &Case, dir: &Path, reference: &[f32]) -> anyhow::Result<(Ve
         .stdout(Stdio::piped())
         .spawn()
         .context("starting mitsuba_grad.py")?;
-    let mut out: Vec<(String, u32, Runs)> = vec![];
+    let mut out: MitsubaRuns = vec![];
     let mut primal = Value::Null;
     for line in BufReader::new(child.stdout.take().expect("piped")).lines() {
         let line = line?;
@@ -491,26 +494,29 @@ fn fmt_vec(v: &[f64]) -> String {
 
 fn main() -> anyhow::Result<()> {
     let args = parse_args()?;
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    if let Some(csv) = &args.chart_only {
+        return write_chart(csv, threads);
+    }
     std::fs::create_dir_all(&args.out)?;
     let work = std::env::temp_dir().join(format!("psdr_bench_grad_{}", std::process::id()));
     std::fs::create_dir_all(&work)?;
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!("bench_grad: {threads} threads; best-of timings (the machine may be shared); work dir {}", work.display());
+    let wanted = |name: &str| args.only.as_deref().is_none_or(|o| o == name);
     let mut cases = vec![];
     if args.large {
         cases.push(cube_case(&work, 0.0, 512, 384, true, args.quick)?);
     } else {
-        cases.push(cube_case(&work, 0.0, 128, 96, false, args.quick)?);
-        cases.push(cube_case(&work, 0.05, 128, 96, false, args.quick)?);
-        cases.push(material_case(args.quick)?);
-    }
-    if let Some(only) = &args.only {
-        cases.retain(|c| c.name == *only);
+        for (name, lift) in [("cube_on_floor", 0.0), ("cube_lifted", 0.05)] {
+            if wanted(name) {
+                cases.push(cube_case(&work, lift, 128, 96, false, args.quick)?);
+            }
+        }
+        if wanted("room_albedo_radiance") {
+            cases.push(material_case(args.quick)?);
+        }
     }
     let csv_path = args.out.join("grad.csv");
-    if let Some(csv) = &args.chart_only {
-        return write_chart(csv, threads);
-    }
     let mut csv = String::from(CSV_HEADER);
     let total = Instant::now();
     for case in &cases {
@@ -596,7 +602,7 @@ fn main() -> anyhow::Result<()> {
                 p.path,
                 case.fd.spp,
                 case.fd.replicas,
-                t.secs / (2 * case.fd.replicas) as f64,
+                t.secs / (2 * case.fd.replicas as usize * p.components.len()) as f64,
                 fmt_vec(&t.mean),
                 fmt_vec(&t.se)
             )?;
@@ -696,7 +702,9 @@ fn write_chart(csv_path: &Path, threads: usize) -> anyhow::Result<()> {
 /// gradient error against FD (mean over seeds, bar = ± one standard deviation), one series per method; the
 /// dashed line is the truth's own relative standard error (errors near it are not resolved).
 fn chart(csv: &str, threads: usize) -> String {
-    let mut panels: Vec<(String, Vec<(String, Point)>, f64)> = vec![];
+    // (title, (method, point) list, truth's relative standard error)
+    type Panel = (String, Vec<(String, Point)>, f64);
+    let mut panels: Vec<Panel> = vec![];
     for line in csv.lines().skip(1).filter(|l| !l.starts_with('#')) {
         let f: Vec<&str> = line.split(',').collect();
         if f.len() < 16 {
