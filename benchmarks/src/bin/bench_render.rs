@@ -1,5 +1,5 @@
 //! Primal render speed against image error, psdr's CPU renderer vs Mitsuba 3 LLVM on the exported scene:
-//! `cargo run -p psdr-benchmarks --release --bin bench_render [-- --reps N --ref-spp N --no-mitsuba --quick]`
+//! `cargo run -p psdr-benchmarks --release --bin bench_render [-- --reps N --ref-spp N --reuse-reference --no-mitsuba --quick]`
 //! (Mitsuba needs `benchmarks/setup_mitsuba.sh`; DRJIT_LIBLLVM_PATH defaults to Debian's libLLVM 19).
 //!
 //! For the example room at 256x192 and 512x384, 16 and 64 spp:
@@ -15,7 +15,7 @@
 //! Writes benchmarks/results/render.csv and render.svg (seconds, log, against RMSE, log).
 
 use anyhow::{bail, Context};
-use psdr::output::read_exr_rgb;
+use psdr::output::{read_exr_rgb, write_exr_channels};
 use psdr::render::{render_cpu, Frame, SceneData};
 use psdr::scene::{load_scene, Scene};
 use std::path::{Path, PathBuf};
@@ -142,10 +142,20 @@ fn main() -> anyhow::Result<()> {
 
     // Reference: psdr at 512x384, ref_spp, another seed; 256x192 is its 2x2 box average.
     let (wr, hr) = SIZES[1];
-    let (reference, ref_s) = render(&scene, wr, hr, ref_spp, REF_SEED)?;
-    println!("reference {wr}x{hr} {ref_spp} spp: {ref_s:.1} s");
-    let ref_small = downsample(&reference.radiance, wr as usize, hr as usize);
-    let reference_for = |w: u32| if w == wr { &reference.radiance[..] } else { &ref_small[..] };
+    // Kept in out/bench_render; `--reuse-reference` skips re-rendering it (only valid for an unchanged renderer).
+    let ref_path = work.join(format!("reference_{wr}x{hr}_{ref_spp}spp.exr"));
+    let reference = if flag("--reuse-reference") && ref_path.exists() {
+        read_exr_rgb(&ref_path)?.2
+    } else {
+        let (frame, ref_s) = render(&scene, wr, hr, ref_spp, REF_SEED)?;
+        println!("reference {wr}x{hr} {ref_spp} spp: {ref_s:.1} s");
+        let channel = |c: usize| frame.radiance.iter().skip(c).step_by(3).copied().collect();
+        let channels = [("R", 0), ("G", 1), ("B", 2)].map(|(n, c)| (n.to_string(), channel(c)));
+        write_exr_channels(&ref_path, wr, hr, &channels)?;
+        frame.radiance
+    };
+    let ref_small = downsample(&reference, wr as usize, hr as usize);
+    let reference_for = |w: u32| if w == wr { &reference[..] } else { &ref_small[..] };
 
     let mut rows = vec![];
     for &(w, h) in &SIZES {
