@@ -46,7 +46,8 @@ fn main() -> anyhow::Result<()> {
     let mut vk = VkBackend::new(None)?;
     let mut cpu = CpuBackend;
     let mut csv = String::from(
-        "scene,width,height,spp,triangles,backend,device,seconds,mrays_per_s,image_mean_rel_diff_vs_other_backend\n",
+        "scene,width,height,spp,triangles,backend,device,seconds,mrays_per_s,image_mean_rel_diff_vs_other_backend,\
+         load_avg_1m\n",
     );
     let mut bars = vec![];
     let cases: Vec<(&str, Scene)> = vec![
@@ -65,7 +66,8 @@ fn main() -> anyhow::Result<()> {
         for (backend, t, f, device) in [("cpu", t_cpu, &f_cpu, cpu.name()), ("vk", t_vk, &f_vk, vk.name())] {
             let mrays = f.rays as f64 / t / 1e6;
             println!("{name:<16} {w}x{h} {spp:>3} spp  {backend:<3} {t:8.3} s  {mrays:7.2} Mrays/s  ({device})");
-            csv += &format!("{name},{w},{h},{spp},{tris},{backend},\"{device}\",{t:.4},{mrays:.3},{rel:.2e}\n");
+            let load = load_average();
+            csv += &format!("{name},{w},{h},{spp},{tris},{backend},\"{device}\",{t:.4},{mrays:.3},{rel:.2e},{load}\n");
             bars.push((format!("{name} {w}x{h}"), backend, mrays));
         }
     }
@@ -76,6 +78,14 @@ fn main() -> anyhow::Result<()> {
     std::fs::write(out.with_extension("svg"), chart(&bars, &vk.name(), &cpu.name()))?;
     println!("wrote {} and {}", out.display(), out.with_extension("svg").display());
     Ok(())
+}
+
+/// The 1-minute load average (Linux), so timings taken on a busy machine can be recognised; empty elsewhere.
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().map(str::to_string))
+        .unwrap_or_default()
 }
 
 /// Grouped horizontal bars: Mrays/s of each backend per scene and size.
