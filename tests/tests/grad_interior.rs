@@ -89,7 +89,15 @@ fn light_radiance_matches_finite_differences() {
 
 /// A floor textured with a 4x4 EXR (large texels) seen from above, with a uv transform.
 fn textured_floor(uv_transform: &str) -> Scene {
-    let dir = std::env::temp_dir().join(format!("psdr_grad_texel_{}_{}", std::process::id(), uv_transform.len()));
+    textured_floor_with(&format!(r#""albedo": {{ "texture": "checker.exr" }}, "specular": 0 {uv_transform}"#))
+}
+
+/// The same floor with its material's fields given (checker.exr: RGB albedo; rough.exr: 1-channel roughness
+/// from 0.2 to 0.8).
+fn textured_floor_with(material: &str) -> Scene {
+    static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("psdr_grad_texel_{}_{k}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let texels: Vec<f32> = (0..16).map(|i| 0.2 + 0.04 * i as f32).collect();
     let ch = |k: usize| texels.iter().map(|v| v * [1.0, 0.9, 0.8][k]).collect::<Vec<f32>>();
@@ -100,12 +108,14 @@ fn textured_floor(uv_transform: &str) -> Scene {
         &[("R".into(), ch(0)), ("G".into(), ch(1)), ("B".into(), ch(2))],
     )
     .unwrap();
+    let rough: Vec<f32> = (0..16).map(|i| 0.2 + 0.04 * i as f32).collect();
+    psdr::output::write_exr_channels(&dir.join("rough.exr"), 4, 4, &[("R".into(), rough)]).unwrap();
     let scene = format!(
         r#"{{
       "format": "psdr-scene", "version": 1,
       "camera": {{ "origin": [0, 2, 0.01], "target": [0, 0, 0], "up": [0, 0, -1], "fov_y": 50, "width": 32, "height": 32 }},
       "render": {{ "spp": 8, "max_depth": 3 }},
-      "materials": [ {{ "name": "floor", "albedo": {{ "texture": "checker.exr" }}, "specular": 0 {uv_transform} }},
+      "materials": [ {{ "name": "floor", {material} }},
                      {{ "name": "white", "albedo": 0.8, "specular": 0 }} ],
       "shapes": [
         {{ "name": "floor", "type": "rectangle", "size": [2, 2], "material": "floor", "transform": {{ "rotation_deg": [-90, 0, 0] }} }},
@@ -123,6 +133,15 @@ fn textured_floor(uv_transform: &str) -> Scene {
 #[test]
 fn single_texel_matches_finite_differences() {
     check_against_fd(&textured_floor(""), "material/floor/albedo.texel[1,2]", 0.05, &[0, 2]);
+}
+
+/// A roughness texel of a glossy floor: its highlight under the lamp changes shape.
+#[test]
+fn single_roughness_texel_matches_finite_differences() {
+    let mut s = textured_floor_with(r#""albedo": 0.3, "specular": 0.8, "roughness": { "texture": "rough.exr" }"#);
+    s.settings.spp = 64;
+    check_against_fd(&s, "material/floor/roughness.texel[2,1]", 0.02, &[0]);
+    check_against_fd(&s, "material/floor/roughness.texel[2,2]", 0.02, &[0]);
 }
 
 /// The texture is piecewise bilinear, so the FD step stays well inside a texel's worth of uv motion.
@@ -161,7 +180,7 @@ fn unused_material_has_zero_gradient() {
 #[test]
 fn unsupported_parameters_are_refused() {
     let s = room(24, 18, 2);
-    let p: ParamPath = "object/table/vertices".parse().unwrap();
+    let p: ParamPath = "material/oak_floor/normal_map.texel[0,0]".parse().unwrap();
     let loss = ImageLoss::Mean(Output::Radiance);
     let opts = AdOptions { replicas: 1, edge_samples: 0, secondary_edge_samples: 0 };
     let e = analytic_gradient(&s, &[p], &loss, &opts, &mut CpuBackend).unwrap_err().to_string();

@@ -1,5 +1,6 @@
 //! Reverse mode (vector-Jacobian product) of the radiance image for parameters that do not move geometry:
-//! emitter radiance, material albedo, roughness and specular constants, albedo texels, uv scale and rotation.
+//! emitter radiance, material albedo, roughness and specular constants, albedo and roughness texels, uv scale
+//! and rotation.
 //! The interior term only: these
 //! parameters create no discontinuities, so there is no boundary term for them.
 //!
@@ -20,7 +21,7 @@ use crate::error::{Error, Result};
 use crate::render::cpu::frame_params;
 use crate::render::layout::{TextureGpu, NONE};
 use crate::render::SceneData;
-use crate::scene::{Color, RenderSettings, Scene};
+use crate::scene::{Color, RenderSettings, Scalar, Scene};
 use glam::{Vec2, Vec3};
 use psdr_materials::{TextureTransform, TextureView, TransformGrad};
 use rayon::prelude::*;
@@ -36,8 +37,9 @@ pub struct GradLayout {
     albedo: Vec<Option<usize>>,
     roughness: Vec<Option<usize>>,
     specular: Vec<Option<usize>>,
-    /// (texture, texel index, offset) of single albedo texels.
+    /// (texture, texel index, offset) of single albedo texels and of single roughness texels.
     texels: Vec<(u32, u32, usize)>,
+    rough_texels: Vec<(u32, u32, usize)>,
     /// Per material: offsets of uv scale (2) and rotation (1) gradients, and the transform itself.
     uv_scale: Vec<Option<usize>>,
     uv_rotation: Vec<Option<usize>>,
@@ -66,6 +68,7 @@ impl GradLayout {
             roughness: vec![None; scene.materials.len()],
             specular: vec![None; scene.materials.len()],
             texels: vec![],
+            rough_texels: vec![],
             uv_scale: vec![None; scene.materials.len()],
             uv_rotation: vec![None; scene.materials.len()],
             uv_transform: scene
@@ -84,8 +87,8 @@ impl GradLayout {
             let unsupported = || {
                 Error::Invalid(format!(
                     "{p}: analytic gradients cover light radiance, material albedo/roughness/specular constants, \
-                     albedo texels, uv scale and rotation (materials without normal maps), and object translation, \
-                     yaw and scale so far; use --fd for this parameter"
+                     albedo and roughness texels, uv scale and rotation (materials without normal maps), and object \
+                     translation, yaw, rotation, scale and vertices so far; use --fd for this parameter"
                 ))
             };
             match p {
@@ -114,6 +117,11 @@ impl GradLayout {
                     let m = &scene.materials[scene.material_index(material).expect("checked")];
                     let Color::Texture(t) = m.albedo else { unreachable!("checked by get") };
                     l.texels.push((t as u32, y * scene.textures[t].width + x, at));
+                }
+                ParamPath::MaterialTexel { material, slot: super::TextureSlot::Roughness, x, y } => {
+                    let m = &scene.materials[scene.material_index(material).expect("checked")];
+                    let Scalar::Texture(t) = m.roughness else { unreachable!("checked by get") };
+                    l.rough_texels.push((t as u32, y * scene.textures[t].width + x, at));
                 }
                 _ => return Err(unsupported()),
             }
@@ -192,15 +200,17 @@ fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVertex], delta
         if l.uv_scale[m].is_some() || l.uv_rotation[m].is_some() {
             uv_transform_adjoint(d, l, m, v.uv, d_albedo, d_rough.x + d_rough.y + d_rough.z, grad);
         }
-        if !l.texels.is_empty() {
-            let tex = d.materials[m].albedo_tex;
-            if tex != NONE {
-                for &(t, texel, o) in &l.texels {
-                    if t == tex {
-                        let wgt = bilinear_weight(&d.textures[t as usize], v.uv, texel);
-                        add3(grad, Some(o), d_albedo * wgt);
-                    }
-                }
+        let tex = d.materials[m].albedo_tex;
+        for &(t, texel, o) in l.texels.iter().filter(|e| e.0 == tex) {
+            let wgt = bilinear_weight(&d.textures[t as usize], v.uv, texel);
+            add3(grad, Some(o), d_albedo * wgt);
+        }
+        // The primal clamps roughness to [0, 1]; a clamped lookup does not move.
+        let tex = d.materials[m].roughness_tex;
+        for &(t, texel, o) in l.rough_texels.iter().filter(|e| e.0 == tex) {
+            let tg = &d.textures[t as usize];
+            if (0.0..=1.0).contains(&crate::render::texture::texture_sample(&d.texels, tg, v.uv, 0)) {
+                grad[o] += ((d_rough.x + d_rough.y + d_rough.z) * bilinear_weight(tg, v.uv, texel)) as f64;
             }
         }
         r_next = v.local + beta * r_next;

@@ -34,17 +34,19 @@ pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Channels)> {
     Ok((w, h, channels))
 }
 
-/// Reads an RGB(A) EXR as interleaved linear RGB.
+/// Reads an EXR as interleaved linear RGB: its R, G, B channels, or a single-channel (grey, e.g. Y) image
+/// replicated to all three.
 pub fn read_exr_rgb(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
-    let img = read_first_rgba_layer_from_file(
-        path,
-        |res, _| (res.width(), vec![0.0f32; res.width() * res.height() * 3]),
-        |(w, px): &mut (usize, Vec<f32>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-            let i = (pos.y() * *w + pos.x()) * 3;
-            px[i..i + 3].copy_from_slice(&[r, g, b]);
-        },
-    )
-    .map_err(|e| Error::io(path, e))?;
-    let size = img.layer_data.size;
-    Ok((size.width() as u32, size.height() as u32, img.layer_data.channel_data.pixels.1))
+    let (w, h, channels) = read_exr_channels(path)?;
+    let find = |name: &str| channels.iter().find(|c| c.0 == name).map(|c| &c.1);
+    let planes: [&Vec<f32>; 3] = match (find("R"), find("G"), find("B"), channels.as_slice()) {
+        (Some(r), Some(g), Some(b), _) => [r, g, b],
+        (_, _, _, [(_, grey)]) => [grey; 3],
+        _ => {
+            let names: Vec<&str> = channels.iter().map(|c| c.0.as_str()).collect();
+            return Err(Error::io(path, format!("EXR needs R, G, B channels or a single channel; it has {names:?}")));
+        }
+    };
+    let rgb = (0..(w * h) as usize).flat_map(|i| planes.map(|p| p[i])).collect();
+    Ok((w, h, rgb))
 }
