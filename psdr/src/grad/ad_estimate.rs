@@ -39,11 +39,19 @@ impl Default for AdOptions {
 const ADJOINT_SEED_OFFSET: u32 = 0x9e37_79b9;
 
 fn is_pose(p: &ParamPath) -> bool {
-    matches!(p, ParamPath::Translation(_) | ParamPath::Yaw(_) | ParamPath::Rotation(_) | ParamPath::Scale(_))
+    matches!(
+        p,
+        ParamPath::Translation(_)
+            | ParamPath::Yaw(_)
+            | ParamPath::Rotation(_)
+            | ParamPath::Scale(_)
+            | ParamPath::Vertices(_)
+    )
 }
 
 /// dLoss/dθ of `params`, in their order: radiance losses w.r.t. lights, materials (interior term) and object
-/// poses (interior + primary, direct and indirect boundary terms); depth and mask losses w.r.t. poses
+/// poses and vertices (interior + primary, direct and indirect boundary terms); depth and mask losses w.r.t.
+/// poses and vertices
 /// (interior + primary boundary; they do not depend on lights or materials, whose gradients are zero).
 pub fn analytic_gradient(
     scene: &Scene,

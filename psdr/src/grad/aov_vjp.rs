@@ -69,6 +69,7 @@ fn depth_interior(d: &SceneData, settings: &RenderSettings, pose: &PoseLayout, a
         .into_par_iter()
         .map(|py| {
             let mut g = vec![0.0f64; pose.len];
+            let mut moving = vec![];
             for px in 0..w {
                 let delta = adjoint[(py * w + px) as usize] / settings.spp as f32;
                 if delta == 0.0 {
@@ -90,11 +91,14 @@ fn depth_interior(d: &SceneData, settings: &RenderSettings, pose: &PoseLayout, a
                     if nd == 0.0 {
                         continue;
                     }
-                    for &(o, c, at) in &pose.entries {
-                        if o == tri.object {
-                            let dt = n.dot(pose.velocity(o, c, p)) / nd;
-                            g[at] += (delta * dt * dir.dot(fwd)) as f64;
-                        }
+                    let ids = pose.corners(d, hit.triangle);
+                    let site = [(ids[0], 1.0 - hit.u - hit.v), (ids[1], hit.u), (ids[2], hit.v)];
+                    moving.clear();
+                    pose.entries_moving(tri.object, &ids, &mut moving);
+                    for &e in &moving {
+                        let (o, c, at) = pose.entries[e];
+                        let dt = n.dot(pose.velocity(o, c, p, &site)) / nd;
+                        g[at] += (delta * dt * dir.dot(fwd)) as f64;
                     }
                 }
             }

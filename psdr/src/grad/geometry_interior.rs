@@ -21,7 +21,7 @@ struct DualTriangle {
     object: u32,
 }
 
-/// The moving pose component being differentiated.
+/// The moving geometric component being differentiated.
 #[derive(Clone, Copy)]
 pub struct Tangent<'a> {
     pub pose: &'a PoseLayout,
@@ -29,12 +29,20 @@ pub struct Tangent<'a> {
     pub component: PoseComponent,
 }
 
-impl Tangent<'_> {
+impl<'a> Tangent<'a> {
+    /// The tangent of entry `e` of `pose`.
+    pub fn of(pose: &'a PoseLayout, e: usize) -> Tangent<'a> {
+        let (object, component, _) = pose.entries[e];
+        Tangent { pose, object, component }
+    }
     fn moves(&self, object: u32) -> bool {
         object == self.object
     }
-    fn point(&self, object: u32, x: Vec3) -> D3 {
-        D3 { v: x, d: if self.moves(object) { self.pose.velocity(object, self.component, x) } else { Vec3::ZERO } }
+    /// A mesh vertex of `object` at world position x with welded id `id`.
+    fn corner(&self, object: u32, id: u32, x: Vec3) -> D3 {
+        let d =
+            if self.moves(object) { self.pose.velocity(object, self.component, x, &[(id, 1.0)]) } else { Vec3::ZERO };
+        D3 { v: x, d }
     }
     fn normal(&self, object: u32, n: Vec3) -> D3 {
         D3 {
@@ -48,8 +56,9 @@ fn triangle(d: &SceneData, t: &Tangent, ti: u32) -> DualTriangle {
     let tri = &d.triangles[ti as usize];
     let v0 = Vec3::from(tri.v0);
     let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
-    let p0 = t.point(tri.object, v0);
-    let (p1, p2) = (t.point(tri.object, v0 + e1), t.point(tri.object, v0 + e2));
+    let c = t.pose.corners(d, ti);
+    let p0 = t.corner(tri.object, c[0], v0);
+    let (p1, p2) = (t.corner(tri.object, c[1], v0 + e1), t.corner(tri.object, c[2], v0 + e2));
     // Keep the primal edge vectors bit-exact; only tangents come from the velocity field.
     DualTriangle { v0: p0, e1: D3 { v: e1, d: p1.d - p0.d }, e2: D3 { v: e2, d: p2.d - p0.d }, object: tri.object }
 }
@@ -157,12 +166,22 @@ fn dual_point(d: &SceneData, tg: &Tangent, ti: u32, tri: &DualTriangle, u: D, v:
     DualPoint { ns, bsdf }
 }
 
-/// True when some triangle of the path (a vertex or a light sample) belongs to the moving object.
-pub fn path_touches(d: &SceneData, rec: &PathRecord, object: u32) -> bool {
-    rec.vertices.iter().any(|v| {
-        d.triangles[v.triangle as usize].object == object
-            || v.nee.is_some_and(|n| d.triangles[n.triangle as usize].object == object)
-    })
+/// The entries of `pose` that move some triangle of the path (a vertex's or a light sample's), once each, in
+/// `out`; all other entries leave the path's value unchanged in the interior term.
+pub fn entries_touching(d: &SceneData, pose: &PoseLayout, rec: &PathRecord, out: &mut Vec<usize>) {
+    out.clear();
+    let mut add = |ti: u32| {
+        let object = d.triangles[ti as usize].object;
+        if object != NONE && pose.moves(object) {
+            pose.entries_moving(object, &pose.corners(d, ti), out);
+        }
+    };
+    for v in &rec.vertices {
+        add(v.triangle);
+        if let Some(n) = &v.nee {
+            add(n.triangle);
+        }
+    }
 }
 
 /// d(path radiance)/dθ along one pose component, and the replayed radiance (equal to the recorded one).

@@ -1,9 +1,9 @@
 //! The welded edges of object meshes with what their adjacent triangles look like: the raw material of every
-//! boundary term. Vertices are welded by exact world position per object (meshes with per-face vertices, such
-//! as flat-shaded OBJs, still get adjacency); positions come from the scene's own meshes, because positions
-//! rebuilt from the renderer's edge vectors do not weld bit-exactly.
+//! boundary term. Vertices are welded by exact object-space position per object (`scene::weld`; meshes with
+//! per-face vertices, such as flat-shaded OBJs, still get adjacency); positions come from the scene's own
+//! meshes, because positions rebuilt from the renderer's edge vectors do not weld bit-exactly.
 
-use crate::scene::Scene;
+use crate::scene::{weld, Scene};
 use glam::Vec3;
 use std::collections::HashMap;
 
@@ -21,6 +21,8 @@ pub struct Face {
 pub struct MeshEdge {
     pub a: Vec3,
     pub b: Vec3,
+    /// Welded vertex ids of `a` and `b` within the object (vertex-position parameters move them).
+    pub ends: [u32; 2],
     pub object: u32,
     pub faces: Vec<Face>,
 }
@@ -51,7 +53,6 @@ impl MeshEdge {
 
 /// All welded edges of the objects for which `wanted(object)` holds, in a deterministic order.
 pub fn mesh_edges(scene: &Scene, wanted: impl Fn(u32) -> bool) -> Vec<MeshEdge> {
-    let mut ids: HashMap<(u32, [u32; 3]), u32> = HashMap::new();
     let mut by_key: HashMap<(u32, u32, u32), usize> = HashMap::new();
     let mut edges: Vec<MeshEdge> = vec![];
     for (oi, obj) in scene.objects.iter().enumerate().filter(|(i, _)| wanted(*i as u32)) {
@@ -59,17 +60,11 @@ pub fn mesh_edges(scene: &Scene, wanted: impl Fn(u32) -> bool) -> Vec<MeshEdge> 
         let m = obj.pose.matrix();
         let nm = obj.pose.normal_matrix();
         let mirror = if obj.pose.is_mirroring() { -1.0 } else { 1.0 };
-        for part in &obj.parts {
+        let welding = weld(obj);
+        for (part, vid) in obj.parts.iter().zip(&welding.ids) {
             let world: Vec<Vec3> = part.positions.iter().map(|&p| m.transform_point3(p)).collect();
             let normals: Option<Vec<Vec3>> =
                 part.normals.as_ref().map(|ns| ns.iter().map(|&n| (nm * n).normalize_or_zero()).collect());
-            let vid: Vec<u32> = world
-                .iter()
-                .map(|p| {
-                    let n = ids.len() as u32;
-                    *ids.entry((o, p.to_array().map(f32::to_bits))).or_insert(n)
-                })
-                .collect();
             for tri in &part.indices {
                 let vs = tri.map(|i| world[i as usize]);
                 let n = (vs[1] - vs[0]).cross(vs[2] - vs[0]);
@@ -86,7 +81,8 @@ pub fn mesh_edges(scene: &Scene, wanted: impl Fn(u32) -> bool) -> Vec<MeshEdge> 
                     // Shading normals in the edge's (a, b) order.
                     let sn = |v: usize| normals.as_ref().map_or(n, |ns| ns[v]);
                     let at = *by_key.entry((o, i.min(j), i.max(j))).or_insert_with(|| {
-                        edges.push(MeshEdge { a: vs[k], b: vs[(k + 1) % 3], object: o, faces: vec![] });
+                        let (a, b) = (vs[k], vs[(k + 1) % 3]);
+                        edges.push(MeshEdge { a, b, ends: [i, j], object: o, faces: vec![] });
                         edges.len() - 1
                     });
                     let same_dir = edges[at].a == vs[k];

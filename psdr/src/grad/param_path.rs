@@ -3,7 +3,7 @@
 //! Scripts select what to optimise by path; gradient checks poke one parameter at a time through `get`/`set`.
 
 use crate::error::{Error, Result};
-use crate::scene::{Color, Scalar, Scene};
+use crate::scene::{weld, Color, Scalar, Scene};
 use glam::{EulerRot, Quat, Vec2, Vec3};
 use std::fmt;
 use std::str::FromStr;
@@ -41,7 +41,9 @@ pub enum ParamPath {
     Rotation(String),
     /// Per-axis scale.
     Scale(String),
-    /// Every vertex position of every part, object space, part after part (3 floats each).
+    /// Every welded vertex position of the object (`scene::weld`: copies at one object-space position are one
+    /// vertex, so moving it never tears the mesh), object space, in order of first appearance, 3 floats each.
+    /// Stored shading normals stay as they are; flat-shaded faces follow their vertices.
     Vertices(String),
 }
 
@@ -141,11 +143,9 @@ impl ParamPath {
             Yaw(n) => vec![scene.objects[object(scene, self, n)?].pose.rotation.to_euler(EulerRot::YXZ).0],
             Rotation(n) => scene.objects[object(scene, self, n)?].pose.rotation.to_scaled_axis().to_array().to_vec(),
             Scale(n) => scene.objects[object(scene, self, n)?].pose.scale.to_array().to_vec(),
-            Vertices(n) => scene.objects[object(scene, self, n)?]
-                .parts
-                .iter()
-                .flat_map(|p| p.positions.iter().flat_map(|v| v.to_array()))
-                .collect(),
+            Vertices(n) => {
+                weld(&scene.objects[object(scene, self, n)?]).positions.iter().flat_map(|v| v.to_array()).collect()
+            }
         })
     }
 
@@ -210,10 +210,10 @@ impl ParamPath {
             }
             Vertices(n) => {
                 let o = object(scene, self, n)?;
-                let mut it = value.chunks_exact(3);
-                for p in scene.objects[o].parts.iter_mut() {
-                    for v in p.positions.iter_mut() {
-                        *v = Vec3::from_slice(it.next().expect("length checked"));
+                let w = weld(&scene.objects[o]);
+                for (p, ids) in scene.objects[o].parts.iter_mut().zip(&w.ids) {
+                    for (v, &id) in p.positions.iter_mut().zip(ids) {
+                        *v = Vec3::from_slice(&value[3 * id as usize..3 * id as usize + 3]);
                     }
                 }
             }

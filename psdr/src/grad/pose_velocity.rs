@@ -1,9 +1,12 @@
-//! Pose parameters as velocity fields: how a world-space point of an object moves per unit change of the
-//! parameter (∂x/∂θ). Boundary and interior terms of geometric parameters both need exactly this.
+//! Geometric parameters as velocity fields: how a world-space point of an object moves per unit change of the
+//! parameter (∂x/∂θ). Boundary and interior terms of geometric parameters both need exactly this. Pose
+//! components move whole objects (affine fields of the point); a welded vertex's component moves the points of
+//! the triangles around it with their barycentric weight of that vertex, so a velocity is asked for at a `Site`.
 
 use super::ParamPath;
 use crate::error::{Error, Result};
-use crate::scene::Scene;
+use crate::render::SceneData;
+use crate::scene::{weld, Scene};
 use glam::{Mat3, Quat, Vec3};
 
 /// One differentiable pose component of one object.
@@ -18,7 +21,13 @@ pub enum PoseComponent {
     /// Component 0, 1, 2 of the rotation vector (axis times angle) of ParamPath::Rotation, about the object's
     /// origin.
     Rotation(usize),
+    /// Object-space axis `axis` of welded vertex `vertex` (ParamPath::Vertices; `scene::weld`).
+    Vertex { vertex: u32, axis: u8 },
 }
+
+/// Where a point lies on its object's mesh, as the welded vertex ids around it and their weights (barycentrics
+/// on a triangle, (1 − t, t) on an edge, one weight at a vertex). Only vertex components look at it.
+pub type Site<'a> = &'a [(u32, f32)];
 
 /// The pose components a set of parameter paths asks for, with their offsets in the gradient vector.
 #[derive(Clone, Debug)]
@@ -29,6 +38,13 @@ pub struct PoseLayout {
     translation: Vec<Vec3>,
     rotation: Vec<Quat>,
     scale: Vec<Vec3>,
+    /// Per object: the entries of its pose components, and the entry of vertex 0 axis 0 when its vertices are
+    /// parameters (vertex k axis a is entry base + 3k + a).
+    pose_entries: Vec<Vec<usize>>,
+    vertex_base: Vec<Option<usize>>,
+    /// Welded vertex ids of each triangle's corners in scene order (as `SceneData` builds them), when some
+    /// object's vertices are parameters.
+    corners: Vec<[u32; 3]>,
 }
 
 impl PoseLayout {
@@ -39,6 +55,9 @@ impl PoseLayout {
             translation: scene.objects.iter().map(|o| o.pose.translation).collect(),
             rotation: scene.objects.iter().map(|o| o.pose.rotation).collect(),
             scale: scene.objects.iter().map(|o| o.pose.scale).collect(),
+            pose_entries: vec![vec![]; scene.objects.len()],
+            vertex_base: vec![None; scene.objects.len()],
+            corners: vec![],
         };
         for p in params {
             let object = |name: &str| {
@@ -70,19 +89,72 @@ impl PoseLayout {
                     (0..3).for_each(|a| l.entries.push((o, PoseComponent::Scale(a), l.len + a)));
                     l.len += 3;
                 }
+                ParamPath::Vertices(n) => {
+                    let o = object(n)?;
+                    if l.vertex_base[o as usize].is_some() {
+                        return Err(Error::Invalid(format!("{p} is listed twice")));
+                    }
+                    l.vertex_base[o as usize] = Some(l.entries.len());
+                    let count = weld(&scene.objects[o as usize]).positions.len() as u32;
+                    for vertex in 0..count {
+                        for axis in 0..3u8 {
+                            l.entries.push((o, PoseComponent::Vertex { vertex, axis }, l.len));
+                            l.len += 1;
+                        }
+                    }
+                }
                 _ => {
                     return Err(Error::Invalid(format!(
-                        "{p}: geometric gradients cover object translation, yaw, rotation and scale so far; use --fd"
+                        "{p}: geometric gradients cover object translation, yaw, rotation, scale and vertices; use \
+                         --fd"
                     )))
                 }
             }
+        }
+        for (e, &(o, c, _)) in l.entries.iter().enumerate() {
+            if !matches!(c, PoseComponent::Vertex { .. }) {
+                l.pose_entries[o as usize].push(e);
+            }
+        }
+        if l.vertex_base.iter().any(Option::is_some) {
+            l.corners = scene_corners(scene);
         }
         Ok(l)
     }
 
     /// True when some entry moves `object`.
     pub fn moves(&self, object: u32) -> bool {
-        self.entries.iter().any(|e| e.0 == object)
+        let o = object as usize;
+        o < self.pose_entries.len() && (!self.pose_entries[o].is_empty() || self.vertex_base[o].is_some())
+    }
+
+    /// Welded vertex ids of the corners of `SceneData` triangle `ti` (zeros when no vertices are parameters:
+    /// then nothing reads them).
+    pub fn corners(&self, d: &SceneData, ti: u32) -> [u32; 3] {
+        if self.corners.is_empty() {
+            return [0; 3];
+        }
+        self.corners[d.triangle_source[ti as usize] as usize]
+    }
+
+    /// Appends to `out` (once each) the entries that move a point of `object` near the welded vertices `ids`:
+    /// the object's pose components and the components of those vertices.
+    pub fn entries_moving(&self, object: u32, ids: &[u32], out: &mut Vec<usize>) {
+        let o = object as usize;
+        if !self.moves(object) {
+            return;
+        }
+        let mut add = |e: usize| {
+            if !out.contains(&e) {
+                out.push(e)
+            }
+        };
+        self.pose_entries[o].iter().for_each(|&e| add(e));
+        if let Some(base) = self.vertex_base[o] {
+            for &id in ids {
+                (0..3).for_each(|a| add(base + 3 * id as usize + a));
+            }
+        }
     }
 
     /// ∂u/∂x, the constant Jacobian of the (affine) velocity field of one component.
@@ -97,6 +169,8 @@ impl PoseLayout {
                 r * Mat3::from_diagonal(Vec3::AXES[a] / self.scale[o][a]) * r.transpose()
             }
             PoseComponent::Rotation(a) => skew(self.angular_velocity(o, a)),
+            // Not affine over the object; only `normal_velocity` asks, and stored normals do not follow vertices.
+            PoseComponent::Vertex { .. } => Mat3::ZERO,
         }
     }
 
@@ -120,10 +194,19 @@ impl PoseLayout {
         -gt_n + n * n.dot(gt_n)
     }
 
-    /// ∂x/∂θ of the world-space point `x` of `object` for one component.
-    pub fn velocity(&self, object: u32, c: PoseComponent, x: Vec3) -> Vec3 {
+    /// ∂x/∂θ of the world-space point `x` of `object`, lying at `site` on its mesh, for one component.
+    pub fn velocity(&self, object: u32, c: PoseComponent, x: Vec3, site: Site) -> Vec3 {
         let o = object as usize;
         match c {
+            // x = T + R S Σ_k b_k v_k  ⇒  ∂x/∂(v_k)_a = b_k R S e_a.
+            PoseComponent::Vertex { vertex, axis } => {
+                let b: f32 = site.iter().filter(|s| s.0 == vertex).map(|s| s.1).sum();
+                if b == 0.0 {
+                    return Vec3::ZERO;
+                }
+                let e = Vec3::AXES[axis as usize];
+                self.rotation[o] * (e * self.scale[o]) * b
+            }
             PoseComponent::Translation(a) => Vec3::AXES[a],
             // x = T + Ry(ψ) R' S x_obj  ⇒  ∂x/∂ψ = ŷ × (x − T).
             PoseComponent::Yaw => Vec3::Y.cross(x - self.translation[o]),
@@ -135,6 +218,23 @@ impl PoseLayout {
             PoseComponent::Rotation(a) => self.angular_velocity(o, a).cross(x - self.translation[o]),
         }
     }
+}
+
+/// Welded corner ids of every triangle of the scene in scene order, corners swapped as `SceneData` swaps them
+/// under mirroring poses.
+fn scene_corners(scene: &Scene) -> Vec<[u32; 3]> {
+    let mut out = vec![];
+    for o in &scene.objects {
+        let w = weld(o);
+        let flip = o.pose.is_mirroring();
+        for (part, ids) in o.parts.iter().zip(&w.ids) {
+            for t in &part.indices {
+                let [a, b, c] = if flip { [t[0], t[2], t[1]] } else { *t };
+                out.push([a, b, c].map(|i| ids[i as usize]));
+            }
+        }
+    }
+    out
 }
 
 /// The matrix of v ↦ w × v.
@@ -185,7 +285,7 @@ mod tests {
                 p.set(&mut scene, &value).unwrap();
                 let x = world(&scene);
                 let (fd_x, fd_n) = ((xp - xm) / (2.0 * h), (np - nm) / (2.0 * h));
-                let (u, dn) = (layout.velocity(o, c, x), layout.normal_velocity(o, c, normal(&scene)));
+                let (u, dn) = (layout.velocity(o, c, x, &[]), layout.normal_velocity(o, c, normal(&scene)));
                 assert!((u - fd_x).length() < 2e-3 * (1.0 + fd_x.length()), "{path}[{k}]: {u} vs FD {fd_x}");
                 assert!((dn - fd_n).length() < 2e-3 * (1.0 + fd_n.length()), "{path}[{k}] normal: {dn} vs FD {fd_n}");
             }

@@ -24,6 +24,18 @@ pub struct ImageEdge {
     pub pa: [f32; 2],
     pub pb: [f32; 2],
     pub object: u32,
+    /// The whole (unclipped) mesh edge and the welded ids of its ends, for vertex velocities.
+    pub mesh: [Vec3; 2],
+    pub ends: [u32; 2],
+}
+
+impl ImageEdge {
+    /// The point x of the mesh edge as a `Site`: its end vertices weighted by where x lies between them.
+    pub fn site(&self, x: Vec3) -> [(u32, f32); 2] {
+        let ab = self.mesh[1] - self.mesh[0];
+        let t = ((x - self.mesh[0]).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
+        [(self.ends[0], 1.0 - t), (self.ends[1], t)]
+    }
 }
 
 /// The edge distribution: silhouette edges of the given objects and the CDF of their projected lengths.
@@ -83,8 +95,8 @@ impl PrimaryEdges {
             let keep = e.is_silhouette_from(eye)
                 || (creases && e.is_crease() && e.faces.iter().all(|f| f.normal.dot(eye - e.a) > 0.0));
             if keep {
-                if let Some(ie) = clip_and_project(cam, e.a, e.b, e.object) {
-                    edges.push(ie);
+                if let Some((a, b, pa, pb)) = clip_and_project(cam, e.a, e.b) {
+                    edges.push(ImageEdge { a, b, pa, pb, object: e.object, mesh: [e.a, e.b], ends: e.ends });
                 }
             }
         }
@@ -120,8 +132,8 @@ fn length(e: &ImageEdge) -> f32 {
     ((e.pb[0] - e.pa[0]).powi(2) + (e.pb[1] - e.pa[1]).powi(2)).sqrt()
 }
 
-/// Clips the segment to the front of the camera and projects it.
-fn clip_and_project(cam: &CameraGpu, mut a: Vec3, mut b: Vec3, object: u32) -> Option<ImageEdge> {
+/// Clips the segment to the front of the camera and projects it: the clipped ends and their image positions.
+fn clip_and_project(cam: &CameraGpu, mut a: Vec3, mut b: Vec3) -> Option<(Vec3, Vec3, [f32; 2], [f32; 2])> {
     let (eye, fwd) = (Vec3::from(cam.origin), Vec3::from(cam.forward));
     let (za, zb) = ((a - eye).dot(fwd), (b - eye).dot(fwd));
     if za < NEAR && zb < NEAR {
@@ -132,7 +144,7 @@ fn clip_and_project(cam: &CameraGpu, mut a: Vec3, mut b: Vec3, object: u32) -> O
     } else if zb < NEAR {
         b = b + (a - b) * ((NEAR - zb) / (za - zb));
     }
-    Some(ImageEdge { a, b, pa: project(cam, a)?, pb: project(cam, b)?, object })
+    Some((a, b, project(cam, a)?, project(cam, b)?))
 }
 
 /// The point of the edge's 3D segment whose projection is `y` (closest point between the camera ray through y
@@ -192,6 +204,7 @@ where
         .into_par_iter()
         .map(|c| {
             let mut g = vec![0.0f64; pose.len];
+            let mut moving = vec![];
             for k in c * CHUNK..((c + 1) * CHUNK).min(edge_samples) {
                 let s = Sampler { seed: seed ^ EDGE_SEED, pixel: k, sample: 0 };
                 let Some(es) = edges.sample(&d.camera, s.get(0), s.get(1)) else { continue };
@@ -213,13 +226,15 @@ where
                 if jump == Vec3::ZERO {
                     continue;
                 }
-                let object = edges.edges[es.edge].object;
+                let edge = &edges.edges[es.edge];
                 let weight = delta.dot(jump) / (es.pdf * edge_samples as f32);
-                for &(o, comp, at) in &pose.entries {
-                    if o == object {
-                        let v = project_velocity(&d.camera, es.x, pose.velocity(o, comp, es.x));
-                        g[at] += (weight * (v[0] * nx + v[1] * ny)) as f64;
-                    }
+                let site = edge.site(es.x);
+                moving.clear();
+                pose.entries_moving(edge.object, &edge.ends, &mut moving);
+                for &e in &moving {
+                    let (o, comp, at) = pose.entries[e];
+                    let v = project_velocity(&d.camera, es.x, pose.velocity(o, comp, es.x, &site));
+                    g[at] += (weight * (v[0] * nx + v[1] * ny)) as f64;
                 }
             }
             g

@@ -4,7 +4,7 @@
 //! numbers (so the difference, not each side, carries the noise).
 
 use super::check_adjoint;
-use super::geometry_interior::{path_touches, replay_radiance, Tangent};
+use super::geometry_interior::{entries_touching, replay_radiance, Tangent};
 use super::path_record::{record_from, record_path, PathRecord};
 use super::pose_velocity::PoseLayout;
 use super::primary_edges::{primary_boundary, PixelAdjoint, PrimaryEdges};
@@ -63,6 +63,7 @@ pub fn radiance_pose_vjp(
             let mut g = vec![0.0f64; pose.len];
             let mut rec = PathRecord::default();
             let mut velocities = vec![Vec::new(); pose.entries.len()];
+            let mut active = vec![];
             for x in 0..w {
                 let i = (y * w + x) * 3;
                 let delta = Vec3::from_slice(&adjoint[i..i + 3]) / fp.spp as f32;
@@ -71,19 +72,15 @@ pub fn radiance_pose_vjp(
                 }
                 for sample in 0..fp.spp {
                     record_path(d, &fp, x as u32, y as u32, sample, &mut rec);
-                    for (e, &(object, component, at)) in pose.entries.iter().enumerate() {
-                        if path_touches(d, &rec, object) {
-                            let tg = Tangent { pose, object, component };
-                            let (dl, _) = replay_radiance(d, &tg, &rec, &mut velocities[e]);
-                            g[at] += delta.dot(dl) as f64;
-                        } else {
-                            velocities[e].clear();
-                            velocities[e].resize(rec.vertices.len(), Vec3::ZERO);
-                        }
+                    entries_touching(d, pose, &rec, &mut active);
+                    for &e in &active {
+                        let (dl, _) = replay_radiance(d, &Tangent::of(pose, e), &rec, &mut velocities[e]);
+                        g[pose.entries[e].2] += delta.dot(dl) as f64;
                     }
                     if samples.secondary > 0 {
                         let s = Sampler { seed: fp.seed, pixel: (y * w + x) as u32, sample };
-                        let paths = SecondaryPath { rec: &rec, velocities: &velocities, sampler: &s, delta };
+                        let paths =
+                            SecondaryPath { rec: &rec, active: &active, velocities: &velocities, sampler: &s, delta };
                         secondary_boundary(d, &fp, pose, &secondary, &paths, samples.secondary, &mut g);
                     }
                 }

@@ -51,7 +51,9 @@ impl SecondaryEdges {
 /// One recorded camera path and what the boundary sampler needs with it.
 pub struct SecondaryPath<'a> {
     pub rec: &'a PathRecord,
-    /// dx_k/dθ of each vertex for each pose entry (ray-form vertices slide along their rays).
+    /// The pose entries that move the path's triangles; the path stands still for all others.
+    pub active: &'a [usize],
+    /// dx_k/dθ of each vertex for each active pose entry (ray-form vertices slide along their rays).
     pub velocities: &'a [Vec<Vec3>],
     pub sampler: &'a Sampler,
     /// The pixel's adjoint divided by spp.
@@ -75,6 +77,7 @@ pub fn secondary_boundary(
     }
     let mut sub = PathRecord::default();
     let mut weights = Vec::with_capacity(edges.edges.len());
+    let mut moving = Vec::with_capacity(path.active.len() + 8);
     let mut prev_p = rec.origin;
     for (k, v) in rec.vertices.iter().enumerate() {
         let tri = &d.triangles[v.triangle as usize];
@@ -91,7 +94,7 @@ pub fn secondary_boundary(
         weights.clear();
         let mut total = 0.0f32;
         // A vertex moves when its triangle or any earlier vertex does (ray form).
-        let x_moves = pose.entries.iter().enumerate().any(|(i, _)| path.velocities[i][k] != Vec3::ZERO);
+        let x_moves = path.active.iter().any(|&i| path.velocities[i][k] != Vec3::ZERO);
         let candidates = &edges.edges[..if x_moves { edges.edges.len() } else { edges.moving }];
         for e in candidates {
             let above = sp.ng.dot(e.a - sp.p) > 0.0 || sp.ng.dot(e.b - sp.p) > 0.0;
@@ -124,7 +127,8 @@ pub fn secondary_boundary(
             let ei = weights.partition_point(|&c| c <= target).min(weights.len() - 1);
             let e = &candidates[ei];
             let p_edge = (weights[ei] - if ei == 0 { 0.0 } else { weights[ei - 1] }) / total;
-            let q = e.a + (e.b - e.a) * es.get(1);
+            let t = es.get(1);
+            let q = e.a + (e.b - e.a) * t;
             let to = q - sp.p;
             let r = to.length();
             if r.is_nan() || r <= 0.0 {
@@ -153,10 +157,17 @@ pub fn secondary_boundary(
                 continue;
             }
             let scale = a.dot(jump) * tau.length() / (p_edge * count as f32);
-            for (i, &(o, comp, at)) in pose.entries.iter().enumerate() {
+            // Entries that move x or the edge point.
+            moving.clear();
+            moving.extend_from_slice(path.active);
+            pose.entries_moving(e.object, &e.ends, &mut moving);
+            let site = [(e.ends[0], 1.0 - t), (e.ends[1], t)];
+            for (j, &i) in moving.iter().enumerate() {
+                let (o, comp, at) = pose.entries[i];
                 // Velocity of the edge point (a material point) relative to x (a sliding ray-form vertex).
-                let edge_velocity = if e.object == o { pose.velocity(o, comp, q) } else { Vec3::ZERO };
-                let rel = edge_velocity - path.velocities[i][k];
+                let edge_velocity = if e.object == o { pose.velocity(o, comp, q, &site) } else { Vec3::ZERO };
+                let x_velocity = if j < path.active.len() { path.velocities[i][k] } else { Vec3::ZERO };
+                let rel = edge_velocity - x_velocity;
                 if rel == Vec3::ZERO {
                     continue;
                 }

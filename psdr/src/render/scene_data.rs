@@ -20,6 +20,8 @@ pub struct SceneData {
     pub emitters: Vec<EmitterGpu>,
     pub lights: Vec<LightGpu>,
     pub camera: CameraGpu,
+    /// Host only: for each triangle, its index in scene order (objects, parts, faces), before the BVH reordering.
+    pub triangle_source: Vec<u32>,
     pub object_count: u32,
     /// Total emitted power proxy (sum of area x luminance) — zero means the scene is dark.
     pub light_weight: f32,
@@ -114,6 +116,7 @@ impl SceneData {
             d.triangles = order.iter().map(|&i| tris[i as usize]).collect();
             d.shading = order.iter().map(|&i| shading[i as usize]).collect();
             light_weight_of = order.iter().map(|&i| light_weight_of[i as usize]).collect();
+            d.triangle_source = order.clone();
             d.nodes = bvh.nodes;
         }
         // Light distribution: emitting triangles chosen proportionally to area x luminance.

@@ -11,6 +11,7 @@ mod pose;
 mod primitives;
 mod texture;
 pub mod validate;
+mod weld;
 
 pub use camera::Camera;
 pub use load::load_scene;
@@ -18,6 +19,7 @@ pub use material::{Color, Material, Scalar, UvTransform};
 pub use mesh::{Emitter, MeshPart, Object};
 pub use pose::Pose;
 pub use primitives::{box_mesh, rectangle_mesh, sphere_mesh};
+pub use weld::{weld, Welding};
 
 pub use texture::{linear_to_srgb as texture_linear_to_srgb, srgb_to_linear, Texture, TextureEncoding};
 

@@ -1,0 +1,82 @@
+//! Small scenes shared by the geometric gradient tests.
+
+use super::scene_from_json;
+use psdr::scene::Scene;
+
+/// A coloured, rotated box against a black background, lit from above.
+pub fn box_in_the_dark() -> Scene {
+    scene_from_json(
+        "box",
+        r#"{ "format": "psdr-scene", "version": 1,
+      "camera": { "origin": [0, 0, 0], "target": [0, 0, -1], "up": [0, 1, 0], "fov_y": 40, "width": 48, "height": 36 },
+      "render": { "spp": 128, "max_depth": 2 },
+      "materials": [ { "name": "red", "albedo": [0.8, 0.2, 0.1], "roughness": 0.4, "specular": 0.5 },
+                     { "name": "white", "albedo": 0.8, "specular": 0 } ],
+      "shapes": [
+        { "name": "box", "type": "box", "size": [0.6, 0.5, 0.7], "material": "red",
+          "transform": { "translation": [0.2, 0.1, -3], "rotation_deg": [20, 30, 0] } },
+        { "name": "lamp", "type": "rectangle", "size": [1, 1], "material": "white",
+          "transform": { "translation": [0, 3, -3], "rotation_deg": [90, 0, 0] }, "emitter": { "radiance": 4 } } ] }"#,
+    )
+}
+
+/// A floor lit from above with a box between the light and the floor; the camera sees only floor, around the
+/// shadow, never the box.
+pub fn shadow_scene(max_depth: u32) -> Scene {
+    scene_from_json(
+        "shadow",
+        &format!(
+            r#"{{ "format": "psdr-scene", "version": 1,
+      "camera": {{ "origin": [0, 0.6, 1.2], "target": [0, 0, 0], "up": [0, 1, 0], "fov_y": 30, "width": 40, "height": 30 }},
+      "render": {{ "spp": 64, "max_depth": {max_depth} }},
+      "materials": [ {{ "name": "floor", "albedo": 0.6, "specular": 0 }}, {{ "name": "grey", "albedo": 0.5, "specular": 0 }} ],
+      "shapes": [
+        {{ "name": "floor", "type": "rectangle", "size": [6, 6], "material": "floor", "transform": {{ "rotation_deg": [-90, 0, 0] }} }},
+        {{ "name": "blocker", "type": "box", "size": [0.3, 0.05, 0.3], "material": "grey",
+           "transform": {{ "translation": [0.05, 1.2, -0.1], "rotation_deg": [0, 25, 0] }} }},
+        {{ "name": "lamp", "type": "rectangle", "size": [0.6, 0.6], "material": "grey",
+           "transform": {{ "translation": [0, 2.2, 0], "rotation_deg": [90, 0, 0] }}, "emitter": {{ "radiance": 6 }} }} ] }}"#
+        ),
+    )
+}
+
+/// The camera sees only a wall; the wall is lit by light bouncing off the floor, where a blocker casts a
+/// shadow. The blocker is invisible to the camera and to the lit part of the wall's direct light.
+pub fn indirect_scene() -> Scene {
+    scene_from_json(
+        "indirect",
+        r#"{ "format": "psdr-scene", "version": 1,
+      "camera": { "origin": [0, 0.5, 1.5], "target": [0, 0.5, -1], "up": [0, 1, 0], "fov_y": 20, "width": 32, "height": 24 },
+      "render": { "spp": 64, "max_depth": 3 },
+      "materials": [ { "name": "white", "albedo": 0.8, "specular": 0 } ],
+      "shapes": [
+        { "name": "floor", "type": "rectangle", "size": [6, 6], "material": "white", "transform": { "rotation_deg": [-90, 0, 0] } },
+        { "name": "wall", "type": "rectangle", "size": [6, 3], "material": "white", "transform": { "translation": [0, 1.5, -1] } },
+        { "name": "blocker", "type": "box", "size": [0.4, 0.05, 0.4], "material": "white",
+          "transform": { "translation": [0, 1.0, 0.3] } },
+        { "name": "lamp", "type": "rectangle", "size": [0.5, 0.5], "material": "white",
+          "transform": { "translation": [0, 2.0, 0.3], "rotation_deg": [90, 0, 0] }, "emitter": { "radiance": 8 } } ] }"#,
+    )
+}
+
+/// A flat-shaded coloured cube on the floor of a closed room under a ceiling light (the case where projective
+/// methods fail: creases between differently lit faces, and the contact edge with the floor).
+pub fn room_with_cube(lift: f32) -> Scene {
+    scene_from_json(
+        "room",
+        &format!(
+            r#"{{ "format": "psdr-scene", "version": 1,
+      "camera": {{ "origin": [0.4, 1.3, 2.2], "target": [0, 0.3, 0], "up": [0, 1, 0], "fov_y": 45, "width": 48, "height": 36 }},
+      "render": {{ "spp": 32, "max_depth": 3 }},
+      "materials": [ {{ "name": "wall", "albedo": 0.7, "specular": 0 }}, {{ "name": "blue", "albedo": [0.1, 0.3, 0.8], "specular": 0 }} ],
+      "shapes": [
+        {{ "name": "room", "type": "box", "size": [4, 2.6, 5], "inward": true, "material": "wall",
+           "transform": {{ "translation": [0, 1.3, 0] }} }},
+        {{ "name": "cube", "type": "box", "size": [0.5, 0.5, 0.5], "material": "blue",
+           "transform": {{ "translation": [0, {}, 0], "rotation_deg": [0, 30, 0] }} }},
+        {{ "name": "light", "type": "rectangle", "size": [1, 1], "material": "wall",
+           "transform": {{ "translation": [0, 2.59, 0], "rotation_deg": [90, 0, 0] }}, "emitter": {{ "radiance": 5 }} }} ] }}"#,
+            0.25 + lift
+        ),
+    )
+}
