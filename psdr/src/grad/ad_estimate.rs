@@ -3,7 +3,7 @@
 
 use super::aov_vjp::aov_vjp;
 use super::pose_velocity::PoseLayout;
-use super::radiance_pose_vjp::{check_supported, radiance_pose_vjp, BoundarySamples};
+use super::radiance_pose_vjp::{radiance_pose_vjp, BoundarySamples};
 use super::{mean_and_std_err, radiance_vjp, GradLayout, ImageLoss, Output, ParamPath};
 use crate::backend::Backend;
 use crate::error::Result;
@@ -64,9 +64,6 @@ pub fn analytic_gradient(
     let material = GradLayout::new(scene, &other)?;
     let pose = PoseLayout::new(scene, &pose_params)?;
     let radiance = matches!(loss.output(), Output::Radiance);
-    if radiance {
-        check_supported(scene, &pose)?;
-    }
     let data = SceneData::build(scene)?;
     let blank = blank_frame(scene);
     let boundary = BoundarySamples {

@@ -8,7 +8,8 @@ use super::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
 use super::dual::{D, D3};
 use super::path_record::PathRecord;
 use super::pose_velocity::{PoseComponent, PoseLayout};
-use crate::render::layout::{TextureGpu, NONE, SHADING_HAS_NORMALS, SHADING_HAS_UVS};
+use crate::render::layout::{MaterialGpu, TextureGpu, TriangleShading, NONE, SHADING_HAS_NORMALS, SHADING_HAS_UVS};
+use crate::render::shading::{apply_uv_transform, orthogonal};
 use crate::render::texture::texture_sample;
 use crate::render::SceneData;
 use glam::{Vec2, Vec3};
@@ -145,14 +146,16 @@ fn dual_point(d: &SceneData, tg: &Tangent, ti: u32, tri: &DualTriangle, u: D, v:
             D::c(constant)
         }
     };
-    let albedo = if mat.albedo_tex != NONE {
-        let t = &d.textures[mat.albedo_tex as usize];
+    let rgb = |tex: u32| {
+        let t = &d.textures[tex as usize];
         let c = |k| dual_texture(d, t, uvt, duvt, k);
         let (r, g, b) = (c(0), c(1), c(2));
         D3 { v: Vec3::new(r.v, g.v, b.v), d: Vec3::new(r.d, g.d, b.d) }
-    } else {
-        D3::c(Vec3::from(mat.albedo))
     };
+    if mat.normal_tex != NONE {
+        ns = normal_mapped(mat, sh, tri, ns, ng, rgb(mat.normal_tex));
+    }
+    let albedo = if mat.albedo_tex != NONE { rgb(mat.albedo_tex) } else { D3::c(Vec3::from(mat.albedo)) };
     // The primal clamps to [0, 1]; clamped channels do not move.
     let clamp3 = |a: D3| D3 {
         v: a.v.clamp(Vec3::ZERO, Vec3::ONE),
@@ -164,6 +167,38 @@ fn dual_point(d: &SceneData, tg: &Tangent, ti: u32, tri: &DualTriangle, u: D, v:
         specular: scalar(mat.specular_tex, mat.specular).clamp_c(0.0, 1.0),
     };
     DualPoint { ns, bsdf }
+}
+
+/// `render::shading::surface_point`'s normal mapping in duals: the tangent frame follows the moving triangle
+/// (uvs are fixed per vertex, so the uv Jacobian is constant) and the map value `texel` slides with the uv.
+/// The frame's fallback for degenerate uvs (`orthogonal`) is held constant.
+fn normal_mapped(mat: &MaterialGpu, sh: &TriangleShading, tri: &DualTriangle, ns: D3, ng: D3, texel: D3) -> D3 {
+    let has_uvs = sh.flags & SHADING_HAS_UVS != 0;
+    let uvt = |uv: [f32; 2]| apply_uv_transform(mat, Vec2::from(uv));
+    let (duv1, duv2) = (uvt(sh.uv1) - uvt(sh.uv0), uvt(sh.uv2) - uvt(sh.uv0));
+    let det = duv1.x * duv2.y - duv1.y * duv2.x;
+    let framed = det != 0.0 && has_uvs;
+    let mut tangent = if framed {
+        (tri.e1 * D::c(duv2.y) - tri.e2 * D::c(duv1.y)) * D::c(1.0 / det)
+    } else {
+        D3::c(orthogonal(ns.v))
+    };
+    tangent = tangent - ns * ns.dot(tangent);
+    tangent = if tangent.v.length() > 1e-12 { tangent.normalize() } else { D3::c(orthogonal(ns.v)) };
+    let mut bitangent = ns.cross(tangent);
+    if framed {
+        let dpdv = (tri.e2.v * duv1.x - tri.e1.v * duv2.x) * (1.0 / det);
+        if bitangent.v.dot(dpdv) < 0.0 {
+            bitangent = -bitangent;
+        }
+    }
+    let m = texel.mul_c(Vec3::splat(2.0)) - D3::c(Vec3::ONE);
+    let n = tangent * D { v: m.v.x, d: m.d.x } + bitangent * D { v: m.v.y, d: m.d.y } + ns * D { v: m.v.z, d: m.d.z };
+    if n.v.length() > 0.0 && n.v.dot(ng.v) > 0.0 {
+        n.normalize()
+    } else {
+        ns
+    }
 }
 
 /// The entries of `pose` that move some triangle of the path (a vertex's or a light sample's), once each, in

@@ -9,6 +9,7 @@ mod bsdf_grad;
 mod dual;
 mod finite_difference;
 mod geometry_interior;
+mod horizon_boundary;
 mod image_loss;
 mod interior;
 mod mesh_edges;

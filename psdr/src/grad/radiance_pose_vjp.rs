@@ -9,7 +9,7 @@ use super::path_record::{record_from, record_path, PathRecord};
 use super::pose_velocity::PoseLayout;
 use super::primary_edges::{primary_boundary, PixelAdjoint, PrimaryEdges};
 use super::secondary_edges::{secondary_boundary, SecondaryEdges, SecondaryPath};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::render::camera::camera_ray;
 use crate::render::cpu::frame_params;
 use crate::render::sampler::Sampler;
@@ -27,23 +27,6 @@ pub struct BoundarySamples {
     pub secondary: u32,
 }
 
-/// Refuses what the geometric replay does not model yet.
-pub fn check_supported(scene: &Scene, pose: &PoseLayout) -> Result<()> {
-    for (o, obj) in scene.objects.iter().enumerate() {
-        if !pose.moves(o as u32) {
-            continue;
-        }
-        if let Some(m) = obj.parts.iter().map(|p| &scene.materials[p.material]).find(|m| m.normal_map.is_some()) {
-            return Err(Error::Invalid(format!(
-                "object '{}': radiance gradients w.r.t. the pose of a normal-mapped object (material '{}') are not \
-                 implemented yet; use --fd",
-                obj.name, m.name
-            )));
-        }
-    }
-    Ok(())
-}
-
 pub fn radiance_pose_vjp(
     scene: &Scene,
     d: &SceneData,
@@ -52,7 +35,6 @@ pub fn radiance_pose_vjp(
     adjoint: &[f32],
     samples: BoundarySamples,
 ) -> Result<Vec<f64>> {
-    check_supported(scene, pose)?;
     let (w, h) = (d.camera.width as usize, d.camera.height as usize);
     check_adjoint(adjoint, w * h * 3)?;
     let fp = frame_params(d, settings);

@@ -9,8 +9,10 @@
 //! dℓ its arc length. We pick one silhouette edge with probability proportional to its approximate arc length,
 //! a point uniformly along it, and estimate L_in on both sides with two paths sharing their random numbers.
 //! Every vertex that scatters gets these samples, so shadows (direct) and occluders seen after bounces
-//! (indirect) are both covered, to the path's full depth.
+//! (indirect) are both covered, to the path's full depth. Vertices on turning surfaces with shading normals
+//! also get samples of their moving horizon (`horizon_boundary`).
 
+use super::horizon_boundary::{face_normal_velocity, has_horizon_jump, horizon_boundary, HorizonVertex};
 use super::mesh_edges::{mesh_edges, MeshEdge};
 use super::path_record::{record_from, PathRecord};
 use super::pose_velocity::PoseLayout;
@@ -24,8 +26,9 @@ use glam::Vec3;
 
 /// Angular offset of the two side directions from an edge (radians).
 const SIDE_EPS: f32 = 1e-4;
-/// Seed tweak separating secondary edge samples from pixel samples.
+/// Seed tweaks separating secondary edge and horizon samples from pixel samples.
 const SECONDARY_SEED: u32 = 0xbb67_ae85;
+const HORIZON_SEED: u32 = 0x3c6e_f372;
 
 /// All welded mesh edges, those of moving objects first (built once per scene and pose set). A vertex on a
 /// static surface sees only moving edges move; a vertex riding on a moving object sees every edge move
@@ -78,6 +81,7 @@ pub fn secondary_boundary(
     let mut sub = PathRecord::default();
     let mut weights = Vec::with_capacity(edges.edges.len());
     let mut moving = Vec::with_capacity(path.active.len() + 8);
+    let mut turning = Vec::with_capacity(path.active.len());
     let mut prev_p = rec.origin;
     for (k, v) in rec.vertices.iter().enumerate() {
         let tri = &d.triangles[v.triangle as usize];
@@ -90,6 +94,30 @@ pub fn secondary_boundary(
         }
         let sp = surface_point(d, v.triangle, v.u, v.v, incoming);
         let wi = sp.to_local(-incoming);
+        let sub_fp = FrameParams {
+            max_depth: fp.max_depth - (k as u32 + 1),
+            rr_depth: fp.rr_depth.saturating_sub(k as u32 + 1),
+            ..*fp
+        };
+        let a = delta * v.throughput;
+        if has_horizon_jump(d, v.triangle) {
+            turning.clear();
+            for &i in path.active {
+                let dn = face_normal_velocity(d, pose, v.triangle, i, sp.ng);
+                if dn != Vec3::ZERO {
+                    turning.push((pose.entries[i].2, dn));
+                }
+            }
+            if !turning.is_empty() {
+                let hv = HorizonVertex { sp: &sp, wi, turning: &turning, adjoint: a };
+                let sampler = |j| Sampler {
+                    seed: s.seed ^ HORIZON_SEED,
+                    pixel: s.pixel,
+                    sample: s.sample * 4096 + k as u32 * 64 + j,
+                };
+                horizon_boundary(d, &sub_fp, &hv, sampler, count, &mut sub, grad);
+            }
+        }
         // Candidate edges and their approximate arc lengths on the sphere around p (upper hemisphere only).
         weights.clear();
         let mut total = 0.0f32;
@@ -114,12 +142,6 @@ pub fn secondary_boundary(
         if total.is_nan() || total <= 0.0 {
             continue;
         }
-        let sub_fp = FrameParams {
-            max_depth: fp.max_depth - (k as u32 + 1),
-            rr_depth: fp.rr_depth.saturating_sub(k as u32 + 1),
-            ..*fp
-        };
-        let a = delta * v.throughput;
         for j in 0..count {
             let es =
                 Sampler { seed: s.seed ^ SECONDARY_SEED, pixel: s.pixel, sample: s.sample * 4096 + k as u32 * 64 + j };
