@@ -93,7 +93,7 @@ fn textured_floor(uv_transform: &str) -> Scene {
 }
 
 /// The same floor with its material's fields given (checker.exr: RGB albedo; rough.exr: 1-channel roughness
-/// from 0.2 to 0.8).
+/// from 0.2 to 0.8; bumps.exr: a normal map).
 fn textured_floor_with(material: &str) -> Scene {
     static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
     let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
@@ -110,6 +110,22 @@ fn textured_floor_with(material: &str) -> Scene {
     .unwrap();
     let rough: Vec<f32> = (0..16).map(|i| 0.2 + 0.04 * i as f32).collect();
     psdr::output::write_exr_channels(&dir.join("rough.exr"), 4, 4, &[("R".into(), rough)]).unwrap();
+    // Tangent-space normals tilted up to ~15° in varying directions.
+    let tilt: Vec<[f32; 3]> = (0..16)
+        .map(|i| {
+            let a = i as f32 * 2.4;
+            let n = glam::Vec3::new(0.25 * a.cos(), 0.25 * a.sin(), 1.0).normalize() * 0.5 + glam::Vec3::splat(0.5);
+            n.to_array()
+        })
+        .collect();
+    let plane = |k: usize| tilt.iter().map(|c| c[k]).collect::<Vec<f32>>();
+    psdr::output::write_exr_channels(
+        &dir.join("bumps.exr"),
+        4,
+        4,
+        &[("R".into(), plane(0)), ("G".into(), plane(1)), ("B".into(), plane(2))],
+    )
+    .unwrap();
     let scene = format!(
         r#"{{
       "format": "psdr-scene", "version": 1,
@@ -142,6 +158,15 @@ fn single_roughness_texel_matches_finite_differences() {
     s.settings.spp = 64;
     check_against_fd(&s, "material/floor/roughness.texel[2,1]", 0.02, &[0]);
     check_against_fd(&s, "material/floor/roughness.texel[2,2]", 0.02, &[0]);
+}
+
+/// A normal-map texel of a glossy floor seen from above (far from grazing, where the terminator of shading
+/// normals has no boundary term yet): all three channels.
+#[test]
+fn single_normal_map_texel_matches_finite_differences() {
+    let mut s = textured_floor_with(r#""albedo": 0.4, "specular": 0.8, "roughness": 0.3, "normal_map": "bumps.exr""#);
+    s.settings.spp = 64;
+    check_against_fd(&s, "material/floor/normal_map.texel[2,2]", 0.02, &[0, 1, 2]);
 }
 
 /// The texture is piecewise bilinear, so the FD step stays well inside a texel's worth of uv motion.
@@ -180,7 +205,7 @@ fn unused_material_has_zero_gradient() {
 #[test]
 fn unsupported_parameters_are_refused() {
     let s = room(24, 18, 2);
-    let p: ParamPath = "material/oak_floor/normal_map.texel[0,0]".parse().unwrap();
+    let p: ParamPath = "material/oak_floor/uv_scale".parse().unwrap();
     let loss = ImageLoss::Mean(Output::Radiance);
     let opts = AdOptions { replicas: 1, edge_samples: 0, secondary_edge_samples: 0 };
     let e = analytic_gradient(&s, &[p], &loss, &opts, &mut CpuBackend).unwrap_err().to_string();

@@ -15,6 +15,7 @@
 
 use super::bsdf_grad::BsdfGrad;
 use super::check_adjoint;
+use super::normal_map_grad::{bsdf_normal_adjoint, normal_map_jacobian};
 use super::path_record::{record_path, PathRecord, RecordedVertex};
 use super::ParamPath;
 use crate::error::{Error, Result};
@@ -40,6 +41,8 @@ pub struct GradLayout {
     /// (texture, texel index, offset) of single albedo texels and of single roughness texels.
     texels: Vec<(u32, u32, usize)>,
     rough_texels: Vec<(u32, u32, usize)>,
+    /// The same for normal-map texels.
+    normal_texels: Vec<(u32, u32, usize)>,
     /// Per material: offsets of uv scale (2) and rotation (1) gradients, and the transform itself.
     uv_scale: Vec<Option<usize>>,
     uv_rotation: Vec<Option<usize>>,
@@ -69,6 +72,7 @@ impl GradLayout {
             specular: vec![None; scene.materials.len()],
             texels: vec![],
             rough_texels: vec![],
+            normal_texels: vec![],
             uv_scale: vec![None; scene.materials.len()],
             uv_rotation: vec![None; scene.materials.len()],
             uv_transform: scene
@@ -87,8 +91,8 @@ impl GradLayout {
             let unsupported = || {
                 Error::Invalid(format!(
                     "{p}: analytic gradients cover light radiance, material albedo/roughness/specular constants, \
-                     albedo and roughness texels, uv scale and rotation (materials without normal maps), and object \
-                     translation, yaw, rotation, scale and vertices so far; use --fd for this parameter"
+                     albedo, roughness and normal-map texels, uv scale and rotation (materials without normal maps), \
+                     and object translation, yaw, rotation, scale and vertices so far; use --fd for this parameter"
                 ))
             };
             match p {
@@ -123,6 +127,11 @@ impl GradLayout {
                     let Scalar::Texture(t) = m.roughness else { unreachable!("checked by get") };
                     l.rough_texels.push((t as u32, y * scene.textures[t].width + x, at));
                 }
+                ParamPath::MaterialTexel { material, slot: super::TextureSlot::NormalMap, x, y } => {
+                    let m = &scene.materials[scene.material_index(material).expect("checked")];
+                    let t = m.normal_map.expect("checked by get");
+                    l.normal_texels.push((t as u32, y * scene.textures[t].width + x, at));
+                }
                 _ => return Err(unsupported()),
             }
             l.offsets.push(at);
@@ -156,6 +165,9 @@ pub fn radiance_vjp(
                 for sample in 0..fp.spp {
                     record_path(d, &fp, x as u32, y as u32, sample, &mut rec);
                     backward_sweep(d, layout, &rec.vertices, delta, &mut grad);
+                    if !layout.normal_texels.is_empty() {
+                        normal_map_sweep(d, layout, &rec, delta, &mut grad);
+                    }
                 }
             }
             grad
@@ -214,6 +226,39 @@ fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVertex], delta
             }
         }
         r_next = v.local + beta * r_next;
+    }
+}
+
+/// Distributes one path's adjoint onto normal-map texels: at each vertex whose map has requested texels,
+/// dL/dn_s from its next-event and continuation terms (R_{k+1} as in `backward_sweep`), through the mapping.
+fn normal_map_sweep(d: &SceneData, l: &GradLayout, rec: &PathRecord, delta: Vec3, grad: &mut [f64]) {
+    let verts = &rec.vertices;
+    // R_{k+1} for every k, from the back.
+    let mut r_after = vec![Vec3::ZERO; verts.len()];
+    let mut r_next = Vec3::ZERO;
+    for (k, v) in verts.iter().enumerate().rev() {
+        r_after[k] = r_next;
+        r_next = v.local + v.next.map_or(Vec3::ZERO, |c| c.beta) * r_next;
+    }
+    for (k, v) in verts.iter().enumerate() {
+        let tex = d.materials[v.material as usize].normal_tex;
+        if tex == NONE || !l.normal_texels.iter().any(|e| e.0 == tex) {
+            continue;
+        }
+        let incoming = if k == 0 { rec.dir } else { verts[k - 1].next.expect("a later vertex was reached").dir };
+        let Some((sp, jacobian)) = normal_map_jacobian(d, v.triangle, v.u, v.v, incoming) else { continue };
+        let a = delta * v.throughput;
+        let mut d_ns = Vec3::ZERO;
+        if let Some(n) = &v.nee {
+            d_ns += bsdf_normal_adjoint(&sp, -incoming, n.dir, a * n.radiance * n.w_over_pdf);
+        }
+        if let Some(c) = &v.next {
+            d_ns += bsdf_normal_adjoint(&sp, -incoming, c.dir, a * r_after[k] / (c.pdf * c.q));
+        }
+        let d_c = jacobian.transpose() * d_ns;
+        for &(t, texel, o) in l.normal_texels.iter().filter(|e| e.0 == tex) {
+            add3(grad, Some(o), d_c * bilinear_weight(&d.textures[t as usize], v.uv, texel));
+        }
     }
 }
 

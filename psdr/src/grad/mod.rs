@@ -13,6 +13,7 @@ mod horizon_boundary;
 mod image_loss;
 mod interior;
 mod mesh_edges;
+mod normal_map_grad;
 mod param_path;
 mod path_record;
 mod pose_velocity;
