@@ -113,8 +113,8 @@ mod tests {
                 let cols = jac.to_cols_array_2d();
                 assert!(cols.iter().flatten().all(|x| x.is_finite()));
                 // n_s stays unit: every column is orthogonal to it.
-                for c in 0..3 {
-                    assert!(Vec3::from(cols[c]).dot(sp.ns).abs() < 1e-4);
+                for col in cols {
+                    assert!(Vec3::from(col).dot(sp.ns).abs() < 1e-4);
                 }
                 checked += 1;
             }
