@@ -46,6 +46,20 @@ fn ggx_g1_dalpha(w: Vec3, alpha: f32) -> f32 {
     -2.0 / ((1.0 + s) * (1.0 + s)) * (alpha * tan2 / s)
 }
 
+/// ∂(f · cos_o)/∂albedo_c: the diffuse lobe without its albedo.
+fn albedo_factor(eta: f32, wi: Vec3, wo: Vec3) -> f32 {
+    FRAC_1_PI * (1.0 - fresnel_dielectric(wi.z, eta)) * (1.0 - fresnel_dielectric(wo.z, eta)) * wo.z
+}
+
+/// The albedo part of `bsdf_eval_grad` alone (the others are zero), for callers that want nothing else: it
+/// skips the dual evaluation.
+pub fn bsdf_albedo_grad(p: &BsdfParams, wi: Vec3, wo: Vec3) -> BsdfGrad {
+    if wi.z <= 0.0 || wo.z <= 0.0 {
+        return BsdfGrad::default();
+    }
+    BsdfGrad { albedo: albedo_factor(specular_to_eta(p.specular), wi, wo), ..Default::default() }
+}
+
 pub fn bsdf_eval_grad(p: &BsdfParams, wi: Vec3, wo: Vec3) -> BsdfGrad {
     if wi.z <= 0.0 || wo.z <= 0.0 {
         return BsdfGrad::default();
@@ -58,9 +72,7 @@ pub fn bsdf_eval_grad(p: &BsdfParams, wi: Vec3, wo: Vec3) -> BsdfGrad {
     };
     let specular = bsdf_eval_dual(&pd, D3::c(Vec3::Z), D3::c(wi), D3::c(wo)).d;
     let eta = specular_to_eta(p.specular);
-    let f_i = fresnel_dielectric(wi.z, eta);
-    let f_o = fresnel_dielectric(wo.z, eta);
-    let albedo = FRAC_1_PI * (1.0 - f_i) * (1.0 - f_o) * wo.z;
+    let albedo = albedo_factor(eta, wi, wo);
     if eta <= 1.0 {
         return BsdfGrad { albedo, roughness: 0.0, specular };
     }

@@ -13,12 +13,13 @@
 //! unbiased. Memory is one vertex list per thread (bounded by max_depth) and one gradient row per image row,
 //! independent of spp; rows are reduced in order, so the result is identical on any thread count.
 
-use super::bsdf_grad::BsdfGrad;
+use super::bsdf_grad::{bsdf_albedo_grad, bsdf_eval_grad, BsdfGrad};
 use super::check_adjoint;
 use super::normal_map_grad::{bsdf_normal_adjoint, normal_map_jacobian};
 use super::path_record::{record_path, PathRecord, RecordedVertex};
 use super::ParamPath;
 use crate::error::{Error, Result};
+use crate::render::bsdf::BsdfParams;
 use crate::render::cpu::frame_params;
 use crate::render::layout::{TextureGpu, NONE};
 use crate::render::SceneData;
@@ -26,6 +27,14 @@ use crate::scene::{Color, RenderSettings, Scalar, Scene};
 use glam::{Vec2, Vec3};
 use psdr_materials::{TextureTransform, TextureView, TransformGrad};
 use rayon::prelude::*;
+
+/// Which BSDF derivatives a material's parameters need.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Wanted {
+    Nothing,
+    Albedo,
+    All,
+}
 
 /// Where each differentiable quantity's gradient goes in the flat gradient vector.
 #[derive(Clone, Debug)]
@@ -43,6 +52,8 @@ pub struct GradLayout {
     rough_texels: Vec<(u32, u32, usize)>,
     /// The same for normal-map texels.
     normal_texels: Vec<(u32, u32, usize)>,
+    /// Per material: which derivatives of its BSDF values some parameter needs.
+    material_wanted: Vec<Wanted>,
     /// Per material: offsets of uv scale (2) and rotation (1) gradients, and the transform itself.
     uv_scale: Vec<Option<usize>>,
     uv_rotation: Vec<Option<usize>>,
@@ -73,6 +84,7 @@ impl GradLayout {
             texels: vec![],
             rough_texels: vec![],
             normal_texels: vec![],
+            material_wanted: vec![],
             uv_scale: vec![None; scene.materials.len()],
             uv_rotation: vec![None; scene.materials.len()],
             uv_transform: scene
@@ -137,6 +149,26 @@ impl GradLayout {
             l.offsets.push(at);
             l.len += n;
         }
+        let has =
+            |list: &[(u32, u32, usize)], t: Option<usize>| t.is_some_and(|t| list.iter().any(|e| e.0 as usize == t));
+        l.material_wanted = scene
+            .materials
+            .iter()
+            .enumerate()
+            .map(|(m, mat)| {
+                let albedo_tex = if let Color::Texture(t) = mat.albedo { Some(t) } else { None };
+                let rough_tex = if let Scalar::Texture(t) = mat.roughness { Some(t) } else { None };
+                let all = [l.roughness[m], l.specular[m], l.uv_scale[m], l.uv_rotation[m]].iter().any(Option::is_some)
+                    || has(&l.rough_texels, rough_tex);
+                if all {
+                    Wanted::All
+                } else if l.albedo[m].is_some() || has(&l.texels, albedo_tex) {
+                    Wanted::Albedo
+                } else {
+                    Wanted::Nothing
+                }
+            })
+            .collect();
         Ok(l)
     }
 }
@@ -188,20 +220,33 @@ fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVertex], delta
         if v.emitter != NONE {
             add3(grad, l.emitter[v.emitter as usize], a * v.emission_mis);
         }
+        let m = v.material as usize;
         let (mut d_albedo, mut d_rough, mut d_spec) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+        // BSDF derivatives only where some requested parameter reads this material, and the roughness and
+        // specular ones (a dual evaluation) only when asked for.
+        let grad_of = match l.material_wanted[m] {
+            Wanted::Nothing => None,
+            Wanted::Albedo => Some(bsdf_albedo_grad as fn(&BsdfParams, Vec3, Vec3) -> BsdfGrad),
+            Wanted::All => Some(bsdf_eval_grad as fn(&BsdfParams, Vec3, Vec3) -> BsdfGrad),
+        };
         if let Some(n) = &v.nee {
             add3(grad, l.emitter[n.emitter as usize], a * n.f * n.w_over_pdf);
-            let via_nee = a * n.radiance * n.w_over_pdf;
-            d_albedo += via_nee * n.f_grad.albedo;
-            d_rough += via_nee * n.f_grad.roughness;
-            d_spec += via_nee * n.f_grad.specular;
+            if let Some(grad_of) = grad_of {
+                let via_nee = a * n.radiance * n.w_over_pdf;
+                let f_grad = grad_of(&v.bsdf(), v.wi_local, n.wo_local);
+                d_albedo += via_nee * f_grad.albedo;
+                d_rough += via_nee * f_grad.roughness;
+                d_spec += via_nee * f_grad.specular;
+            }
         }
-        let (beta, beta_grad) = v.next.map_or((Vec3::ZERO, BsdfGrad::default()), |c| (c.beta, c.beta_grad));
-        let via_path = a * r_next;
-        d_albedo += via_path * beta_grad.albedo;
-        d_rough += via_path * beta_grad.roughness;
-        d_spec += via_path * beta_grad.specular;
-        let m = v.material as usize;
+        let beta = v.next.map_or(Vec3::ZERO, |c| c.beta);
+        if let (Some(c), Some(grad_of)) = (&v.next, grad_of) {
+            let via_path = a * r_next;
+            let beta_grad = grad_of(&v.bsdf(), v.wi_local, c.wo_local).scaled(1.0 / (c.pdf * c.q));
+            d_albedo += via_path * beta_grad.albedo;
+            d_rough += via_path * beta_grad.roughness;
+            d_spec += via_path * beta_grad.specular;
+        }
         add3(grad, l.albedo[m], d_albedo);
         if let Some(o) = l.roughness[m] {
             grad[o] += (d_rough.x + d_rough.y + d_rough.z) as f64;

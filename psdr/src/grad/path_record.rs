@@ -3,8 +3,7 @@
 //! its local estimator terms, and the detached densities of its next-event and continuation samples.
 //! Memory is one record per thread, bounded by max_depth, reused across samples.
 
-use super::bsdf_grad::{bsdf_eval_grad, BsdfGrad};
-use crate::render::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample};
+use crate::render::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample, BsdfParams};
 use crate::render::bvh::trace_closest;
 use crate::render::camera::camera_ray;
 use crate::render::layout::{FrameParams, NONE};
@@ -26,9 +25,9 @@ pub struct RecordedNee {
     pub radiance: Vec3,
     /// MIS weight / solid-angle density (detached: held fixed when differentiating): n = f · Le · this.
     pub w_over_pdf: f32,
-    /// f · cos_o toward the light, and its derivative w.r.t. material constants.
+    /// f · cos_o toward the light, and the light direction in the shading frame (for its derivatives).
     pub f: Vec3,
-    pub f_grad: BsdfGrad,
+    pub wo_local: Vec3,
 }
 
 /// The BSDF-sampled continuation to the next vertex.
@@ -39,9 +38,9 @@ pub struct RecordedContinuation {
     /// Solid-angle density of the sampled direction and the roulette survival probability (detached).
     pub pdf: f32,
     pub q: f32,
-    /// β = f · cos / pdf / q and ∂β/∂(material constants).
+    /// β = f · cos / pdf / q, and the sampled direction in the shading frame (for its derivatives).
     pub beta: Vec3,
-    pub beta_grad: BsdfGrad,
+    pub wo_local: Vec3,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -58,6 +57,12 @@ pub struct RecordedVertex {
     pub nee: Option<RecordedNee>,
     pub next: Option<RecordedContinuation>,
     pub material: u32,
+    /// The BSDF's inputs here (material values after texture lookup and clamping) and the incoming direction
+    /// in the shading frame: derivatives w.r.t. material values are computed from them only when asked for.
+    pub albedo: Vec3,
+    pub roughness: f32,
+    pub specular: f32,
+    pub wi_local: Vec3,
     /// Texture coordinates after the uv transform.
     pub uv: Vec2,
     /// e_k + n_k: the radiance this vertex adds, relative to its throughput.
@@ -69,6 +74,12 @@ pub struct PathRecord {
     pub origin: Vec3,
     pub dir: Vec3,
     pub vertices: Vec<RecordedVertex>,
+}
+
+impl RecordedVertex {
+    pub fn bsdf(&self) -> BsdfParams {
+        BsdfParams { albedo: self.albedo, roughness: self.roughness, specular: self.specular }
+    }
 }
 
 impl PathRecord {
@@ -107,6 +118,9 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
             emitter: NONE,
             material: d.triangles[hit.triangle as usize].material,
             uv: sp.uv,
+            albedo: sp.bsdf.albedo,
+            roughness: sp.bsdf.roughness,
+            specular: sp.bsdf.specular,
             ..Default::default()
         };
         let le = emitted_radiance(d, hit.triangle, sp.front);
@@ -126,6 +140,7 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
             break;
         }
         let wi = sp.to_local(-dir);
+        v.wi_local = wi;
         if fp.light_count > 0 {
             let (u_sel, u1, u2) =
                 (s.bounce(depth, DIM_LIGHT_SELECT), s.bounce(depth, DIM_LIGHT_U), s.bounce(depth, DIM_LIGHT_V));
@@ -147,7 +162,7 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
                         radiance: ls.radiance,
                         w_over_pdf: w / light_pdf,
                         f,
-                        f_grad: bsdf_eval_grad(&sp.bsdf, wi, sp.to_local(wl)),
+                        wo_local: sp.to_local(wl),
                     };
                     v.local += f * ls.radiance * nee.w_over_pdf;
                     v.nee = Some(nee);
@@ -166,13 +181,7 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
         };
         prev_bsdf_pdf = bs.pdf;
         dir = sp.to_world(bs.wo).normalize();
-        let mut next = RecordedContinuation {
-            dir,
-            pdf: bs.pdf,
-            q: 1.0,
-            beta: bs.weight,
-            beta_grad: bsdf_eval_grad(&sp.bsdf, wi, bs.wo),
-        };
+        let mut next = RecordedContinuation { dir, pdf: bs.pdf, q: 1.0, beta: bs.weight, wo_local: bs.wo };
         origin = offset_origin(sp.p, sp.ng, dir);
         if depth + 1 >= fp.rr_depth {
             let q = (beta * bs.weight).max_element().min(0.95);
@@ -183,7 +192,6 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
             next.q = q;
             next.beta /= q;
         }
-        next.beta_grad = next.beta_grad.scaled(1.0 / (next.pdf * next.q));
         beta *= next.beta;
         v.next = Some(next);
         rec.vertices.push(v);
