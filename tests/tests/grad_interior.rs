@@ -201,13 +201,14 @@ fn unused_material_has_zero_gradient() {
     assert_eq!(ad.mean, vec![0.0; 3]);
 }
 
-/// Parameters without an analytic gradient yet are refused with a pointer to --fd rather than given a wrong one.
+/// The uv transform of a normal-mapped glossy floor: the map is read elsewhere and its tangent frame turns.
 #[test]
-fn unsupported_parameters_are_refused() {
-    let s = room(24, 18, 2);
-    let p: ParamPath = "material/oak_floor/uv_scale".parse().unwrap();
-    let loss = ImageLoss::Mean(Output::Radiance);
-    let opts = AdOptions { replicas: 1, edge_samples: 0, secondary_edge_samples: 0 };
-    let e = analytic_gradient(&s, &[p], &loss, &opts, &mut CpuBackend).unwrap_err().to_string();
-    assert!(e.contains("--fd"), "{e}");
+fn normal_mapped_uv_scale_and_rotation_match_finite_differences() {
+    let mut s = textured_floor_with(
+        r#""albedo": 0.4, "specular": 0.8, "roughness": 0.5, "normal_map": "bumps.exr",
+           "uv_transform": { "scale": [1.3, 0.8], "rotation_deg": 20 }"#,
+    );
+    s.settings.spp = 128;
+    check_against_fd(&s, "material/floor/uv_scale", 0.01, &[0, 1]);
+    check_against_fd(&s, "material/floor/uv_rotation", 0.5, &[0]);
 }

@@ -6,10 +6,11 @@
 
 use super::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
 use super::dual::{D, D3};
+use super::normal_map_grad::{map_normal_dual, UvFrame};
 use super::path_record::PathRecord;
 use super::pose_velocity::{PoseComponent, PoseLayout};
 use crate::render::layout::{MaterialGpu, TextureGpu, TriangleShading, NONE, SHADING_HAS_NORMALS, SHADING_HAS_UVS};
-use crate::render::shading::{apply_uv_transform, orthogonal};
+use crate::render::shading::apply_uv_transform;
 use crate::render::texture::texture_sample;
 use crate::render::SceneData;
 use glam::{Vec2, Vec3};
@@ -92,7 +93,7 @@ struct DualPoint {
 
 /// Channel `c` of the bilinear lookup at uv and its derivative along duv (render/texture.rs's lookup,
 /// differentiated inside the texel cell; the four texels are read back through the lookup at their centres).
-fn dual_texture(d: &SceneData, t: &TextureGpu, uv: Vec2, duv: Vec2, c: u32) -> D {
+pub(super) fn dual_texture(d: &SceneData, t: &TextureGpu, uv: Vec2, duv: Vec2, c: u32) -> D {
     let x = uv.x * t.width as f32 - 0.5;
     let y = (1.0 - uv.y) * t.height as f32 - 0.5;
     let (fx, fy) = (x - x.floor(), y - y.floor());
@@ -169,36 +170,17 @@ fn dual_point(d: &SceneData, tg: &Tangent, ti: u32, tri: &DualTriangle, u: D, v:
     DualPoint { ns, bsdf }
 }
 
-/// `render::shading::surface_point`'s normal mapping in duals: the tangent frame follows the moving triangle
-/// (uvs are fixed per vertex, so the uv Jacobian is constant) and the map value `texel` slides with the uv.
-/// The frame's fallback for degenerate uvs (`orthogonal`) is held constant.
+/// `render::shading::surface_point`'s normal mapping with the tangent frame following the moving triangle
+/// (uvs are fixed per vertex, so the uv Jacobian is constant) and the map value `texel` sliding with the uv.
 fn normal_mapped(mat: &MaterialGpu, sh: &TriangleShading, tri: &DualTriangle, ns: D3, ng: D3, texel: D3) -> D3 {
-    let has_uvs = sh.flags & SHADING_HAS_UVS != 0;
     let uvt = |uv: [f32; 2]| apply_uv_transform(mat, Vec2::from(uv));
     let (duv1, duv2) = (uvt(sh.uv1) - uvt(sh.uv0), uvt(sh.uv2) - uvt(sh.uv0));
-    let det = duv1.x * duv2.y - duv1.y * duv2.x;
-    let framed = det != 0.0 && has_uvs;
-    let mut tangent = if framed {
-        (tri.e1 * D::c(duv2.y) - tri.e2 * D::c(duv1.y)) * D::c(1.0 / det)
-    } else {
-        D3::c(orthogonal(ns.v))
+    let frame = UvFrame {
+        duv1: [D::c(duv1.x), D::c(duv1.y)],
+        duv2: [D::c(duv2.x), D::c(duv2.y)],
+        has_uvs: sh.flags & SHADING_HAS_UVS != 0,
     };
-    tangent = tangent - ns * ns.dot(tangent);
-    tangent = if tangent.v.length() > 1e-12 { tangent.normalize() } else { D3::c(orthogonal(ns.v)) };
-    let mut bitangent = ns.cross(tangent);
-    if framed {
-        let dpdv = (tri.e2.v * duv1.x - tri.e1.v * duv2.x) * (1.0 / det);
-        if bitangent.v.dot(dpdv) < 0.0 {
-            bitangent = -bitangent;
-        }
-    }
-    let m = texel.mul_c(Vec3::splat(2.0)) - D3::c(Vec3::ONE);
-    let n = tangent * D { v: m.v.x, d: m.d.x } + bitangent * D { v: m.v.y, d: m.d.y } + ns * D { v: m.v.z, d: m.d.z };
-    if n.v.length() > 0.0 && n.v.dot(ng.v) > 0.0 {
-        n.normalize()
-    } else {
-        ns
-    }
+    map_normal_dual(tri.e1, tri.e2, ns, ng.v, &frame, texel)
 }
 
 /// The entries of `pose` that move some triangle of the path (a vertex's or a light sample's), once each, in

@@ -15,7 +15,7 @@
 
 use super::bsdf_grad::{bsdf_albedo_grad, bsdf_eval_grad, BsdfGrad};
 use super::check_adjoint;
-use super::normal_map_grad::{bsdf_normal_adjoint, normal_map_jacobian};
+use super::normal_map_grad::{bsdf_normal_adjoint, normal_map_jacobian, normal_map_uv_tangents};
 use super::path_record::{record_path, PathRecord, RecordedVertex};
 use super::ParamPath;
 use crate::error::{Error, Result};
@@ -54,6 +54,8 @@ pub struct GradLayout {
     normal_texels: Vec<(u32, u32, usize)>,
     /// Per material: which derivatives of its BSDF values some parameter needs.
     material_wanted: Vec<Wanted>,
+    /// Some parameter moves shading normals (normal-map texels, the uv transform of a normal-mapped material).
+    shading_normal_wanted: bool,
     /// Per material: offsets of uv scale (2) and rotation (1) gradients, and the transform itself.
     uv_scale: Vec<Option<usize>>,
     uv_rotation: Vec<Option<usize>>,
@@ -85,6 +87,7 @@ impl GradLayout {
             rough_texels: vec![],
             normal_texels: vec![],
             material_wanted: vec![],
+            shading_normal_wanted: false,
             uv_scale: vec![None; scene.materials.len()],
             uv_rotation: vec![None; scene.materials.len()],
             uv_transform: scene
@@ -103,8 +106,8 @@ impl GradLayout {
             let unsupported = || {
                 Error::Invalid(format!(
                     "{p}: analytic gradients cover light radiance, material albedo/roughness/specular constants, \
-                     albedo, roughness and normal-map texels, uv scale and rotation (materials without normal maps), \
-                     and object translation, yaw, rotation, scale and vertices so far; use --fd for this parameter"
+                     albedo, roughness and normal-map texels, uv scale and rotation, and object translation, yaw, \
+                     rotation, scale and vertices; use --fd for this parameter"
                 ))
             };
             match p {
@@ -121,9 +124,6 @@ impl GradLayout {
                 }
                 ParamPath::UvScale(name) | ParamPath::UvRotation(name) => {
                     let m = scene.material_index(name).expect("checked");
-                    if scene.materials[m].normal_map.is_some() {
-                        return Err(unsupported());
-                    }
                     match p {
                         ParamPath::UvScale(_) => l.uv_scale[m] = Some(at),
                         _ => l.uv_rotation[m] = Some(at),
@@ -169,6 +169,11 @@ impl GradLayout {
                 }
             })
             .collect();
+        l.shading_normal_wanted =
+            !l.normal_texels.is_empty()
+                || scene.materials.iter().enumerate().any(|(m, mat)| {
+                    mat.normal_map.is_some() && (l.uv_scale[m].is_some() || l.uv_rotation[m].is_some())
+                });
         Ok(l)
     }
 }
@@ -197,7 +202,7 @@ pub fn radiance_vjp(
                 for sample in 0..fp.spp {
                     record_path(d, &fp, x as u32, y as u32, sample, &mut rec);
                     backward_sweep(d, layout, &rec.vertices, delta, &mut grad);
-                    if !layout.normal_texels.is_empty() {
+                    if layout.shading_normal_wanted {
                         normal_map_sweep(d, layout, &rec, delta, &mut grad);
                     }
                 }
@@ -286,8 +291,10 @@ fn normal_map_sweep(d: &SceneData, l: &GradLayout, rec: &PathRecord, delta: Vec3
         r_next = v.local + v.next.map_or(Vec3::ZERO, |c| c.beta) * r_next;
     }
     for (k, v) in verts.iter().enumerate() {
-        let tex = d.materials[v.material as usize].normal_tex;
-        if tex == NONE || !l.normal_texels.iter().any(|e| e.0 == tex) {
+        let m = v.material as usize;
+        let tex = d.materials[m].normal_tex;
+        let uv_params = l.uv_scale[m].is_some() || l.uv_rotation[m].is_some();
+        if tex == NONE || !(uv_params || l.normal_texels.iter().any(|e| e.0 == tex)) {
             continue;
         }
         let incoming = if k == 0 { rec.dir } else { verts[k - 1].next.expect("a later vertex was reached").dir };
@@ -303,6 +310,18 @@ fn normal_map_sweep(d: &SceneData, l: &GradLayout, rec: &PathRecord, delta: Vec3
         let d_c = jacobian.transpose() * d_ns;
         for &(t, texel, o) in l.normal_texels.iter().filter(|e| e.0 == tex) {
             add3(grad, Some(o), d_c * bilinear_weight(&d.textures[t as usize], v.uv, texel));
+        }
+        if uv_params {
+            let tr = &l.uv_transform[m];
+            let scale = Vec2::new(tr.scale[0] as f32, tr.scale[1] as f32);
+            let dn = normal_map_uv_tangents(d, v.triangle, v.u, v.v, incoming, scale, tr.rotation_deg as f32);
+            if let Some(o) = l.uv_scale[m] {
+                grad[o] += d_ns.dot(dn[0]) as f64;
+                grad[o + 1] += d_ns.dot(dn[1]) as f64;
+            }
+            if let Some(o) = l.uv_rotation[m] {
+                grad[o] += d_ns.dot(dn[2]) as f64;
+            }
         }
     }
 }

@@ -6,6 +6,7 @@
 
 use super::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
 use super::dual::{D, D3};
+use super::geometry_interior::dual_texture;
 use crate::render::layout::{NONE, SHADING_HAS_NORMALS, SHADING_HAS_UVS};
 use crate::render::shading::{apply_uv_transform, orthogonal, surface_point, SurfacePoint};
 use crate::render::texture::texture_sample_rgb;
@@ -70,6 +71,111 @@ pub fn normal_map_jacobian(d: &SceneData, ti: u32, u: f32, v: f32, incoming: Vec
     let project = (Mat3::IDENTITY - outer(mapped, mapped)) * (1.0 / len);
     let jacobian = project * Mat3::from_cols(tangent, bitangent, ns) * 2.0;
     Some((surface_point(d, ti, u, v, incoming), jacobian))
+}
+
+/// The uv differences of a triangle's corners after the uv transform (duals: they move with uv parameters),
+/// and whether the mesh has uvs at all.
+pub struct UvFrame {
+    pub duv1: [D; 2],
+    pub duv2: [D; 2],
+    pub has_uvs: bool,
+}
+
+/// `render::shading::surface_point`'s normal mapping in duals: the tangent frame from the (dual) triangle edges
+/// and uv differences, orthonormalised against the (dual) unmapped normal `ns`, then the map value `texel`.
+/// The frame's fallback for degenerate uvs (`orthogonal`) is held constant.
+pub fn map_normal_dual(e1: D3, e2: D3, ns: D3, ng: Vec3, f: &UvFrame, texel: D3) -> D3 {
+    let [u1, v1] = f.duv1;
+    let [u2, v2] = f.duv2;
+    let det = u1 * v2 - v1 * u2;
+    let framed = det.v != 0.0 && f.has_uvs;
+    let mut tangent = if framed { (e1 * v2 - e2 * v1) * (D::c(1.0) / det) } else { D3::c(orthogonal(ns.v)) };
+    tangent = tangent - ns * ns.dot(tangent);
+    tangent = if tangent.v.length() > 1e-12 { tangent.normalize() } else { D3::c(orthogonal(ns.v)) };
+    let mut bitangent = ns.cross(tangent);
+    if framed {
+        let dpdv = (e2.v * u1.v - e1.v * u2.v) * (1.0 / det.v);
+        if bitangent.v.dot(dpdv) < 0.0 {
+            bitangent = -bitangent;
+        }
+    }
+    let m = texel.mul_c(Vec3::splat(2.0)) - D3::c(Vec3::ONE);
+    let n = tangent * D { v: m.v.x, d: m.d.x } + bitangent * D { v: m.v.y, d: m.d.y } + ns * D { v: m.v.z, d: m.d.z };
+    if n.v.length() > 0.0 && n.v.dot(ng) > 0.0 {
+        n.normalize()
+    } else {
+        ns
+    }
+}
+
+/// ∂n_s/∂(uv scale x, uv scale y, uv rotation in degrees) at a hit on a normal-mapped surface: the map is read
+/// elsewhere and the tangent frame turns with the transform. `scale` and `rotation_deg` are the material's.
+pub fn normal_map_uv_tangents(
+    d: &SceneData,
+    ti: u32,
+    u: f32,
+    v: f32,
+    incoming: Vec3,
+    scale: Vec2,
+    rotation_deg: f32,
+) -> [Vec3; 3] {
+    let tri = &d.triangles[ti as usize];
+    let mat = &d.materials[tri.material as usize];
+    let sh = &d.shading[ti as usize];
+    let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
+    let sp = surface_point(d, ti, u, v, incoming);
+    // The unmapped, flipped normal as surface_point builds it (normal mapping replaces it in `sp`).
+    let mut ng = e1.cross(e2).normalize();
+    let w = 1.0 - u - v;
+    let mut ns = if sh.flags & SHADING_HAS_NORMALS != 0 {
+        let n = Vec3::from(sh.n0) * w + Vec3::from(sh.n1) * u + Vec3::from(sh.n2) * v;
+        let len = n.length();
+        if len > 0.0 {
+            n / len
+        } else {
+            ng
+        }
+    } else {
+        ng
+    };
+    if ng.dot(incoming) >= 0.0 {
+        ng = -ng;
+    }
+    if ns.dot(ng) < 0.0 {
+        ns = -ns;
+    }
+    let has_uvs = sh.flags & SHADING_HAS_UVS != 0;
+    let (uv0, uv1, uv2) = (Vec2::from(sh.uv0), Vec2::from(sh.uv1), Vec2::from(sh.uv2));
+    let uv = if has_uvs { uv0 * w + uv1 * u + uv2 * v } else { Vec2::new(u, v) };
+    let (s, c) = rotation_deg.to_radians().sin_cos();
+    let k = std::f32::consts::PI / 180.0;
+    // uv' = M uv + o with M = R(φ) diag(sx, sy); the derivative of M per parameter.
+    let d_m = [
+        [Vec2::new(c, s), Vec2::ZERO],
+        [Vec2::ZERO, Vec2::new(-s, c)],
+        [Vec2::new(-s * scale.x, c * scale.x) * k, Vec2::new(-c * scale.y, -s * scale.y) * k],
+    ];
+    let t = &d.textures[mat.normal_tex as usize];
+    let mut out = [Vec3::ZERO; 3];
+    for (p, [col0, col1]) in d_m.iter().enumerate() {
+        let dm = |x: Vec2| *col0 * x.x + *col1 * x.y;
+        let dual2 = |x: Vec2| {
+            let v = apply_uv_transform(mat, x);
+            let dv = dm(x);
+            [D { v: v.x, d: dv.x }, D { v: v.y, d: dv.y }]
+        };
+        let sub = |a: [D; 2], b: [D; 2]| [a[0] - b[0], a[1] - b[1]];
+        let (q0, q1, q2) = (dual2(uv0), dual2(uv1), dual2(uv2));
+        let frame = UvFrame { duv1: sub(q1, q0), duv2: sub(q2, q0), has_uvs };
+        let (uvt, duvt) = (apply_uv_transform(mat, uv), dm(uv));
+        let ch = |k| dual_texture(d, t, uvt, duvt, k);
+        let (r, g, b) = (ch(0), ch(1), ch(2));
+        let texel = D3 { v: Vec3::new(r.v, g.v, b.v), d: Vec3::new(r.d, g.d, b.d) };
+        let n = map_normal_dual(D3::c(e1), D3::c(e2), D3::c(ns), ng, &frame, texel);
+        debug_assert!((n.v - sp.ns).length() < 1e-4);
+        out[p] = n.d;
+    }
+    out
 }
 
 fn outer(a: Vec3, b: Vec3) -> Mat3 {
