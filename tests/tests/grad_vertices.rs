@@ -143,3 +143,25 @@ fn cube_top_corner_in_the_room() {
     let f = check_extrapolated(&s, "object/cube/vertices", &loss, 0.005, &components(&top[..1]));
     assert!(f[1] < 0.0, "raising the corner toward the target must lower the loss: {f:?}");
 }
+
+/// Gradients are sums over blocks of pixels and edge samples fixed independently of the thread count, so every
+/// term (interior, primary and secondary boundaries, material sweep) is bit-identical on 1, 2 and 3
+/// threads.
+#[test]
+fn gradients_are_identical_on_any_thread_count() {
+    let mut s = room_with_cube(0.0);
+    s.camera.width = 24;
+    s.camera.height = 18;
+    s.settings.spp = 4;
+    let opts = AdOptions { replicas: 1, edge_samples: 1 << 12, secondary_edge_samples: 1 };
+    let run = |threads| {
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {
+            ["object/cube/vertices", "object/cube/rotation", "material/wall/albedo"]
+                .map(|p| ad(&s, p, &ImageLoss::Mean(Output::Radiance), opts).mean)
+        })
+    };
+    let one = run(1);
+    assert!(one.iter().flatten().any(|g| *g != 0.0));
+    assert_eq!(one, run(2));
+    assert_eq!(one, run(3));
+}

@@ -6,10 +6,10 @@
 //! ε pixels apart, and V = ∂y/∂θ is the image velocity of the edge point. f⁻ is the side the normal n points
 //! away from: when the edge moves along +n, the f⁻ region grows.
 
-use super::check_adjoint;
 use super::pose_velocity::PoseLayout;
 use super::primary_edges::{primary_boundary, PixelAdjoint, PrimaryEdges};
 use super::Output;
+use super::{accumulate_blocks, check_adjoint};
 use crate::error::{Error, Result};
 use crate::render::bvh::trace_closest;
 use crate::render::camera::camera_ray;
@@ -18,7 +18,6 @@ use crate::render::sampler::{Sampler, DIM_PIXEL_X, DIM_PIXEL_Y};
 use crate::render::SceneData;
 use crate::scene::{RenderSettings, Scene};
 use glam::Vec3;
-use rayon::prelude::*;
 
 /// The value an AOV takes along the camera ray through image point (x, y), and what it hit.
 fn aov_along(d: &SceneData, output: &Output, x: f32, y: f32) -> f32 {
@@ -48,28 +47,22 @@ pub fn aov_vjp(
         return Err(Error::Invalid("aov_vjp differentiates depth and masks; radiance has its own adjoint".into()));
     }
     check_adjoint(adjoint, w * h)?;
-    let mut grad = vec![0.0f64; pose.len];
+    let mut grad = boundary(scene, d, settings, pose, output, adjoint, edge_samples);
     if matches!(output, Output::Depth) {
-        for row in depth_interior(d, settings, pose, adjoint) {
-            grad.iter_mut().zip(row).for_each(|(g, r)| *g += r);
-        }
-    }
-    for chunk in boundary(scene, d, settings, pose, output, adjoint, edge_samples) {
-        grad.iter_mut().zip(chunk).for_each(|(g, r)| *g += r);
+        let interior = depth_interior(d, settings, pose, adjoint);
+        grad.iter_mut().zip(interior).for_each(|(g, r)| *g += r);
     }
     Ok(grad)
 }
 
-/// Interior term of depth: one gradient row per image row.
-fn depth_interior(d: &SceneData, settings: &RenderSettings, pose: &PoseLayout, adjoint: &[f32]) -> Vec<Vec<f64>> {
+/// Interior term of depth.
+fn depth_interior(d: &SceneData, settings: &RenderSettings, pose: &PoseLayout, adjoint: &[f32]) -> Vec<f64> {
     let (w, h) = (d.camera.width, d.camera.height);
     let fwd = Vec3::from(d.camera.forward);
     let origin = Vec3::from(d.camera.origin);
-    (0..h)
-        .into_par_iter()
-        .map(|py| {
-            let mut g = vec![0.0f64; pose.len];
-            let mut moving = vec![];
+    accumulate_blocks(h as usize, pose.len, |rows, g| {
+        let mut moving = vec![];
+        for py in rows.map(|y| y as u32) {
             for px in 0..w {
                 let delta = adjoint[(py * w + px) as usize] / settings.spp as f32;
                 if delta == 0.0 {
@@ -102,9 +95,8 @@ fn depth_interior(d: &SceneData, settings: &RenderSettings, pose: &PoseLayout, a
                     }
                 }
             }
-            g
-        })
-        .collect()
+        }
+    })
 }
 
 /// Boundary term: silhouettes only (depth and masks are continuous across creases).
@@ -116,7 +108,7 @@ fn boundary(
     output: &Output,
     adjoint: &[f32],
     edge_samples: u32,
-) -> Vec<Vec<f64>> {
+) -> Vec<f64> {
     let edges = PrimaryEdges::build(scene, &d.camera, false, |o| pose.moves(o));
     primary_boundary(
         d,

@@ -14,10 +14,10 @@
 //! independent of spp; rows are reduced in order, so the result is identical on any thread count.
 
 use super::bsdf_grad::{bsdf_albedo_grad, bsdf_eval_grad, BsdfGrad};
-use super::check_adjoint;
 use super::normal_map_grad::{bsdf_normal_adjoint, normal_map_jacobian, normal_map_uv_tangents};
 use super::path_record::{record_path, PathRecord, RecordedVertex};
 use super::ParamPath;
+use super::{accumulate_blocks, check_adjoint};
 use crate::error::{Error, Result};
 use crate::render::bsdf::BsdfParams;
 use crate::render::cpu::frame_params;
@@ -26,7 +26,6 @@ use crate::render::SceneData;
 use crate::scene::{Color, RenderSettings, Scalar, Scene};
 use glam::{Vec2, Vec3};
 use psdr_materials::{TextureTransform, TextureView, TransformGrad};
-use rayon::prelude::*;
 
 /// Which BSDF derivatives a material's parameters need.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -188,11 +187,9 @@ pub fn radiance_vjp(
     let (w, h) = (d.camera.width as usize, d.camera.height as usize);
     check_adjoint(adjoint, w * h * 3)?;
     let fp = frame_params(d, settings);
-    let rows: Vec<Vec<f64>> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let mut grad = vec![0.0f64; layout.len];
-            let mut rec = PathRecord::default();
+    Ok(accumulate_blocks(h, layout.len, |rows, grad| {
+        let mut rec = PathRecord::default();
+        for y in rows {
             for x in 0..w {
                 let i = (y * w + x) * 3;
                 let delta = Vec3::from_slice(&adjoint[i..i + 3]) / fp.spp as f32;
@@ -201,20 +198,14 @@ pub fn radiance_vjp(
                 }
                 for sample in 0..fp.spp {
                     record_path(d, &fp, x as u32, y as u32, sample, &mut rec);
-                    backward_sweep(d, layout, &rec.vertices, delta, &mut grad);
+                    backward_sweep(d, layout, &rec.vertices, delta, grad);
                     if layout.shading_normal_wanted {
-                        normal_map_sweep(d, layout, &rec, delta, &mut grad);
+                        normal_map_sweep(d, layout, &rec, delta, grad);
                     }
                 }
             }
-            grad
-        })
-        .collect();
-    let mut grad = vec![0.0; layout.len];
-    for row in rows {
-        grad.iter_mut().zip(row).for_each(|(g, r)| *g += r);
-    }
-    Ok(grad)
+        }
+    }))
 }
 
 /// Distributes one path's adjoint `delta` (already divided by spp) onto the parameters.

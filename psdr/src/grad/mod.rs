@@ -32,6 +32,34 @@ pub use pose_velocity::{PoseComponent, PoseLayout};
 pub use primary_edges::{project, project_velocity, PrimaryEdges};
 pub use radiance_pose_vjp::{radiance_pose_vjp, BoundarySamples};
 
+/// Blocks a parallel gradient accumulation is split into: fixed (the sum's order, hence its rounding, never
+/// depends on the thread count) and few (each holds a full gradient vector, and vertex gradients of a large
+/// mesh make those long).
+const GRAD_BLOCKS: usize = 32;
+
+/// Σ over items 0..n of their contributions to a gradient of `len` floats: `add(range, grad)` adds those of
+/// one contiguous block of items; blocks run in parallel and are summed in order.
+pub(crate) fn accumulate_blocks<F>(n: usize, len: usize, add: F) -> Vec<f64>
+where
+    F: Fn(std::ops::Range<usize>, &mut [f64]) + Sync,
+{
+    use rayon::prelude::*;
+    let blocks = n.min(GRAD_BLOCKS);
+    let partial: Vec<Vec<f64>> = (0..blocks)
+        .into_par_iter()
+        .map(|b| {
+            let mut g = vec![0.0f64; len];
+            add(b * n / blocks..(b + 1) * n / blocks, &mut g);
+            g
+        })
+        .collect();
+    let mut grad = vec![0.0f64; len];
+    for p in partial {
+        grad.iter_mut().zip(p).for_each(|(g, v)| *g += v);
+    }
+    grad
+}
+
 /// Refuses an adjoint image of the wrong size or with non-finite values (they would poison every gradient).
 pub(crate) fn check_adjoint(adjoint: &[f32], expected: usize) -> crate::Result<()> {
     if adjoint.len() != expected {

@@ -5,6 +5,7 @@
 //! triangle), when its two triangles face opposite ways from the camera, or when more than two triangles meet
 //! there (`mesh_edges`). Edges hidden behind other geometry are kept: the two-sided evaluation sees no jump.
 
+use super::accumulate_blocks;
 use super::mesh_edges::mesh_edges;
 use super::pose_velocity::PoseLayout;
 use crate::render::layout::CameraGpu;
@@ -12,7 +13,6 @@ use crate::render::sampler::Sampler;
 use crate::render::SceneData;
 use crate::scene::Scene;
 use glam::Vec3;
-use rayon::prelude::*;
 
 /// A silhouette edge clipped to the front of the camera.
 #[derive(Clone, Copy, Debug)]
@@ -169,8 +169,6 @@ fn point_on_edge(cam: &CameraGpu, e: &ImageEdge, y: [f32; 2]) -> Option<Vec3> {
 pub const SIDE_EPS: f32 = 1e-3;
 /// Seed tweak separating edge samples from pixel samples.
 const EDGE_SEED: u32 = 0x6a09_e667;
-/// Edge samples per parallel chunk (chunks are reduced in order, so the thread count does not matter).
-const CHUNK: u32 = 256;
 
 /// dLoss/d(output) per pixel, `channels` (1 or 3) values per pixel.
 #[derive(Clone, Copy)]
@@ -183,7 +181,7 @@ pub struct PixelAdjoint<'a> {
 ///     Σ_samples adjoint(pixel) · [f(y − εn) − f(y + εn)] (V·n) / pdf / N
 /// over `edge_samples` points y sampled on `edges`. `side(x, y, sampler)` evaluates the output along the camera
 /// ray through image point (x, y); both sides of one sample get the same sampler, so noise cancels in the
-/// difference. Returns one gradient vector per chunk of samples, to be summed in order.
+/// difference.
 pub fn primary_boundary<F>(
     d: &SceneData,
     seed: u32,
@@ -192,54 +190,48 @@ pub fn primary_boundary<F>(
     adjoint: PixelAdjoint,
     edge_samples: u32,
     side: F,
-) -> Vec<Vec<f64>>
+) -> Vec<f64>
 where
     F: Fn(f32, f32, &Sampler) -> Vec3 + Sync,
 {
     if edges.edges.is_empty() || edge_samples == 0 {
-        return vec![];
+        return vec![0.0; pose.len];
     }
     let (w, h) = (d.camera.width as f32, d.camera.height as f32);
-    (0..edge_samples.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let mut g = vec![0.0f64; pose.len];
-            let mut moving = vec![];
-            for k in c * CHUNK..((c + 1) * CHUNK).min(edge_samples) {
-                let s = Sampler { seed: seed ^ EDGE_SEED, pixel: k, sample: 0 };
-                let Some(es) = edges.sample(&d.camera, s.get(0), s.get(1)) else { continue };
-                let [x, y] = es.y;
-                if !(x >= 0.0 && y >= 0.0 && x < w && y < h) {
-                    continue;
-                }
-                let i = (y as u32 * d.camera.width + x as u32) as usize * adjoint.channels;
-                let mut delta = Vec3::ZERO;
-                for (ch, a) in adjoint.values[i..i + adjoint.channels].iter().enumerate() {
-                    delta[ch] = *a;
-                }
-                if delta == Vec3::ZERO {
-                    continue;
-                }
-                let [nx, ny] = es.n;
-                let jump =
-                    side(x - nx * SIDE_EPS, y - ny * SIDE_EPS, &s) - side(x + nx * SIDE_EPS, y + ny * SIDE_EPS, &s);
-                if jump == Vec3::ZERO {
-                    continue;
-                }
-                let edge = &edges.edges[es.edge];
-                let weight = delta.dot(jump) / (es.pdf * edge_samples as f32);
-                let site = edge.site(es.x);
-                moving.clear();
-                pose.entries_moving(edge.object, &edge.ends, &mut moving);
-                for &e in &moving {
-                    let (o, comp, at) = pose.entries[e];
-                    let v = project_velocity(&d.camera, es.x, pose.velocity(o, comp, es.x, &site));
-                    g[at] += (weight * (v[0] * nx + v[1] * ny)) as f64;
-                }
+    accumulate_blocks(edge_samples as usize, pose.len, |samples, g| {
+        let mut moving = vec![];
+        for k in samples.map(|k| k as u32) {
+            let s = Sampler { seed: seed ^ EDGE_SEED, pixel: k, sample: 0 };
+            let Some(es) = edges.sample(&d.camera, s.get(0), s.get(1)) else { continue };
+            let [x, y] = es.y;
+            if !(x >= 0.0 && y >= 0.0 && x < w && y < h) {
+                continue;
             }
-            g
-        })
-        .collect()
+            let i = (y as u32 * d.camera.width + x as u32) as usize * adjoint.channels;
+            let mut delta = Vec3::ZERO;
+            for (ch, a) in adjoint.values[i..i + adjoint.channels].iter().enumerate() {
+                delta[ch] = *a;
+            }
+            if delta == Vec3::ZERO {
+                continue;
+            }
+            let [nx, ny] = es.n;
+            let jump = side(x - nx * SIDE_EPS, y - ny * SIDE_EPS, &s) - side(x + nx * SIDE_EPS, y + ny * SIDE_EPS, &s);
+            if jump == Vec3::ZERO {
+                continue;
+            }
+            let edge = &edges.edges[es.edge];
+            let weight = delta.dot(jump) / (es.pdf * edge_samples as f32);
+            let site = edge.site(es.x);
+            moving.clear();
+            pose.entries_moving(edge.object, &edge.ends, &mut moving);
+            for &e in &moving {
+                let (o, comp, at) = pose.entries[e];
+                let v = project_velocity(&d.camera, es.x, pose.velocity(o, comp, es.x, &site));
+                g[at] += (weight * (v[0] * nx + v[1] * ny)) as f64;
+            }
+        }
+    })
 }
 
 #[cfg(test)]

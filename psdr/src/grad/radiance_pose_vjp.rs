@@ -3,12 +3,12 @@
 //! by projected length and takes the radiance difference across them from two paths that share their random
 //! numbers (so the difference, not each side, carries the noise).
 
-use super::check_adjoint;
 use super::geometry_interior::{entries_touching, replay_radiance, Tangent};
 use super::path_record::{record_from, record_path, PathRecord};
 use super::pose_velocity::PoseLayout;
 use super::primary_edges::{primary_boundary, PixelAdjoint, PrimaryEdges};
 use super::secondary_edges::{secondary_boundary, SecondaryEdges, SecondaryPath};
+use super::{accumulate_blocks, check_adjoint};
 use crate::error::Result;
 use crate::render::camera::camera_ray;
 use crate::render::cpu::frame_params;
@@ -16,7 +16,6 @@ use crate::render::sampler::Sampler;
 use crate::render::SceneData;
 use crate::scene::{RenderSettings, Scene};
 use glam::Vec3;
-use rayon::prelude::*;
 
 /// Sample counts of the boundary terms.
 #[derive(Clone, Copy, Debug)]
@@ -39,13 +38,12 @@ pub fn radiance_pose_vjp(
     check_adjoint(adjoint, w * h * 3)?;
     let fp = frame_params(d, settings);
     let secondary = SecondaryEdges::build(scene, |o| pose.moves(o));
-    let rows: Vec<Vec<f64>> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let mut g = vec![0.0f64; pose.len];
-            let mut rec = PathRecord::default();
-            let mut velocities = vec![Vec::new(); pose.entries.len()];
-            let mut active = vec![];
+    let mut grad = accumulate_blocks(h, pose.len, |rows, g| {
+        let mut rec = PathRecord::default();
+        // Vertex velocities of the path under each active entry (indexed like `active`).
+        let mut velocities: Vec<Vec<Vec3>> = vec![];
+        let mut active = vec![];
+        for y in rows {
             for x in 0..w {
                 let i = (y * w + x) * 3;
                 let delta = Vec3::from_slice(&adjoint[i..i + 3]) / fp.spp as f32;
@@ -55,25 +53,23 @@ pub fn radiance_pose_vjp(
                 for sample in 0..fp.spp {
                     record_path(d, &fp, x as u32, y as u32, sample, &mut rec);
                     entries_touching(d, pose, &rec, &mut active);
-                    for &e in &active {
-                        let (dl, _) = replay_radiance(d, &Tangent::of(pose, e), &rec, &mut velocities[e]);
+                    velocities.resize_with(velocities.len().max(active.len()), Vec::new);
+                    for (j, &e) in active.iter().enumerate() {
+                        let (dl, _) = replay_radiance(d, &Tangent::of(pose, e), &rec, &mut velocities[j]);
                         g[pose.entries[e].2] += delta.dot(dl) as f64;
                     }
                     if samples.secondary > 0 {
                         let s = Sampler { seed: fp.seed, pixel: (y * w + x) as u32, sample };
                         let paths =
                             SecondaryPath { rec: &rec, active: &active, velocities: &velocities, sampler: &s, delta };
-                        secondary_boundary(d, &fp, pose, &secondary, &paths, samples.secondary, &mut g);
+                        secondary_boundary(d, &fp, pose, &secondary, &paths, samples.secondary, g);
                     }
                 }
             }
-            g
-        })
-        .collect();
-    let mut grad = vec![0.0f64; pose.len];
-    for row in rows.into_iter().chain(radiance_primary_boundary(scene, d, settings, pose, adjoint, samples.primary)) {
-        grad.iter_mut().zip(row).for_each(|(g, r)| *g += r);
-    }
+        }
+    });
+    let primary = radiance_primary_boundary(scene, d, settings, pose, adjoint, samples.primary);
+    grad.iter_mut().zip(primary).for_each(|(g, p)| *g += p);
     Ok(grad)
 }
 
@@ -85,7 +81,7 @@ fn radiance_primary_boundary(
     pose: &PoseLayout,
     adjoint: &[f32],
     edge_samples: u32,
-) -> Vec<Vec<f64>> {
+) -> Vec<f64> {
     let edges = PrimaryEdges::build(scene, &d.camera, true, |o| pose.moves(o));
     let fp = frame_params(d, settings);
     let origin = Vec3::from(d.camera.origin);

@@ -56,7 +56,8 @@ pub struct SecondaryPath<'a> {
     pub rec: &'a PathRecord,
     /// The pose entries that move the path's triangles; the path stands still for all others.
     pub active: &'a [usize],
-    /// dx_k/dθ of each vertex for each active pose entry (ray-form vertices slide along their rays).
+    /// dx_k/dθ of each vertex for each active pose entry, in the order of `active` (ray-form vertices slide
+    /// along their rays).
     pub velocities: &'a [Vec<Vec3>],
     pub sampler: &'a Sampler,
     /// The pixel's adjoint divided by spp.
@@ -122,7 +123,7 @@ pub fn secondary_boundary(
         weights.clear();
         let mut total = 0.0f32;
         // A vertex moves when its triangle or any earlier vertex does (ray form).
-        let x_moves = path.active.iter().any(|&i| path.velocities[i][k] != Vec3::ZERO);
+        let x_moves = path.velocities[..path.active.len()].iter().any(|v| v[k] != Vec3::ZERO);
         let candidates = &edges.edges[..if x_moves { edges.edges.len() } else { edges.moving }];
         for e in candidates {
             let above = sp.ng.dot(e.a - sp.p) > 0.0 || sp.ng.dot(e.b - sp.p) > 0.0;
@@ -188,7 +189,7 @@ pub fn secondary_boundary(
                 let (o, comp, at) = pose.entries[i];
                 // Velocity of the edge point (a material point) relative to x (a sliding ray-form vertex).
                 let edge_velocity = if e.object == o { pose.velocity(o, comp, q, &site) } else { Vec3::ZERO };
-                let x_velocity = if j < path.active.len() { path.velocities[i][k] } else { Vec3::ZERO };
+                let x_velocity = if j < path.active.len() { path.velocities[j][k] } else { Vec3::ZERO };
                 let rel = edge_velocity - x_velocity;
                 if rel == Vec3::ZERO {
                     continue;
