@@ -7,6 +7,7 @@ mod aov_vjp;
 mod bsdf_dual;
 mod bsdf_grad;
 mod dual;
+mod edge_tree;
 mod finite_difference;
 mod geometry_interior;
 mod horizon_boundary;

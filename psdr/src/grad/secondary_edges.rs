@@ -12,6 +12,7 @@
 //! (indirect) are both covered, to the path's full depth. Vertices on turning surfaces with shading normals
 //! also get samples of their moving horizon (`horizon_boundary`).
 
+use super::edge_tree::EdgeTree;
 use super::horizon_boundary::{face_normal_velocity, has_horizon_jump, horizon_boundary, HorizonVertex};
 use super::mesh_edges::{mesh_edges, MeshEdge};
 use super::path_record::{record_from, PathRecord};
@@ -36,6 +37,9 @@ const HORIZON_SEED: u32 = 0x3c6e_f372;
 pub struct SecondaryEdges {
     edges: Vec<MeshEdge>,
     moving: usize,
+    /// Culling trees over the moving edges and over the others.
+    moving_tree: EdgeTree,
+    static_tree: EdgeTree,
 }
 
 impl SecondaryEdges {
@@ -43,7 +47,8 @@ impl SecondaryEdges {
         let mut edges = mesh_edges(scene, &moving);
         let n = edges.len();
         edges.extend(mesh_edges(scene, |o| !moving(o)));
-        SecondaryEdges { edges, moving: n }
+        let (moving_tree, static_tree) = (EdgeTree::build(&edges[..n], 0), EdgeTree::build(&edges[n..], n));
+        SecondaryEdges { edges, moving: n, moving_tree, static_tree }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -80,7 +85,7 @@ pub fn secondary_boundary(
         return;
     }
     let mut sub = PathRecord::default();
-    let mut weights = Vec::with_capacity(edges.edges.len());
+    let (mut weights, mut chosen, mut stack) = (vec![], vec![], vec![]);
     let mut moving = Vec::with_capacity(path.active.len() + 8);
     let mut turning = Vec::with_capacity(path.active.len());
     let mut prev_p = rec.origin;
@@ -121,24 +126,30 @@ pub fn secondary_boundary(
         }
         // Candidate edges and their approximate arc lengths on the sphere around p (upper hemisphere only).
         weights.clear();
+        chosen.clear();
         let mut total = 0.0f32;
         // A vertex moves when its triangle or any earlier vertex does (ray form).
         let x_moves = path.velocities[..path.active.len()].iter().any(|v| v[k] != Vec3::ZERO);
-        let candidates = &edges.edges[..if x_moves { edges.edges.len() } else { edges.moving }];
-        for e in candidates {
+        let mut weigh = |i: usize| {
+            let e = &edges.edges[i];
             let above = sp.ng.dot(e.a - sp.p) > 0.0 || sp.ng.dot(e.b - sp.p) > 0.0;
             let creased = e.is_crease() && e.faces.iter().all(|f| f.normal.dot(sp.p - e.a) > 0.0);
-            let w = if above && (e.is_silhouette_from(sp.p) || creased) {
+            if above && (e.is_silhouette_from(sp.p) || creased) {
                 let mid = 0.5 * (e.a + e.b) - sp.p;
                 let r = mid.length();
                 let om = mid / r;
                 let ab = e.b - e.a;
-                (ab - om * om.dot(ab)).length() / r
-            } else {
-                0.0
-            };
-            total += w;
-            weights.push(total);
+                let w = (ab - om * om.dot(ab)).length() / r;
+                if w > 0.0 {
+                    total += w;
+                    weights.push(total);
+                    chosen.push(i);
+                }
+            }
+        };
+        edges.moving_tree.visit(sp.p, sp.ng, &mut stack, &mut weigh);
+        if x_moves {
+            edges.static_tree.visit(sp.p, sp.ng, &mut stack, &mut weigh);
         }
         if total.is_nan() || total <= 0.0 {
             continue;
@@ -148,7 +159,7 @@ pub fn secondary_boundary(
                 Sampler { seed: s.seed ^ SECONDARY_SEED, pixel: s.pixel, sample: s.sample * 4096 + k as u32 * 64 + j };
             let target = es.get(0) * total;
             let ei = weights.partition_point(|&c| c <= target).min(weights.len() - 1);
-            let e = &candidates[ei];
+            let e = &edges.edges[chosen[ei]];
             let p_edge = (weights[ei] - if ei == 0 { 0.0 } else { weights[ei - 1] }) / total;
             let t = es.get(1);
             let q = e.a + (e.b - e.a) * t;
