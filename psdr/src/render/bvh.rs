@@ -62,7 +62,7 @@ pub fn intersect_triangle(tri: &TriangleGeom, origin: Vec3, dir: Vec3) -> Option
 }
 
 /// The two children of an inner node, `nodes[l]` and `nodes[l + 1]`, against one ray: their `intersect_aabb`
-/// values, computed together. On x86_64 this is four-wide SSE2 (`box_pair_sse`): per lane the same subtract,
+/// values, computed together. On x86_64 this is four-wide SSE2 (`sse::RaySse::pair`): per lane the same subtract,
 /// multiply, min and max as `intersect_aabb`, so every value and decision is the same (min/max select exactly;
 /// the operands are never NaN because `safe_inverse` keeps 1/d finite). Elsewhere it is two `intersect_aabb` calls.
 /// CPU only: the GLSL twin calls `intersect_aabb` twice, which is what this computes.
@@ -175,22 +175,17 @@ pub fn trace_closest(nodes: &[BvhNode], tris: &[TriangleGeom], origin: Vec3, dir
     let inv_dir = safe_inverse(dir);
     let boxes = RayBoxes::new(origin, inv_dir);
     let mut best = Hit { t: t_max, u: 0.0, v: 0.0, triangle: u32::MAX };
-    // Each stack entry keeps the entry distance of its box, computed when its parent was visited: a popped
-    // node is skipped when a hit found since then is nearer (the same test as re-intersecting its box).
-    let mut stack = stack_storage::<(u32, f32)>();
-    let mut sp = 1usize;
-    let t_root = intersect_aabb(&nodes[0], origin, inv_dir, best.t);
-    stack[0].write((0, t_root));
-    if t_root == f32::INFINITY {
+    if intersect_aabb(&nodes[0], origin, inv_dir, best.t) == f32::INFINITY {
         return None;
     }
-    while sp > 0 {
-        sp -= 1;
-        // SAFETY: entries below `sp` were written before (the push sites write before incrementing `sp`).
-        let (node_index, t_entry) = unsafe { stack[sp].assume_init() };
-        if t_entry > best.t {
-            continue;
-        }
+    // Each stack entry keeps the entry distance of its box, computed when its parent was visited: a popped
+    // node is skipped when a hit found since then is nearer (the same test as re-intersecting its box).
+    // The nearer child of an inner node is visited next without a round trip through the stack (its entry
+    // distance is at most best.t, so the pop test would pass).
+    let mut stack = stack_storage::<(u32, f32)>();
+    let mut sp = 0usize;
+    let mut node_index = 0u32;
+    loop {
         let node = &nodes[node_index as usize];
         if node.prim_count > 0 {
             let first = node.first_index as usize;
@@ -202,7 +197,7 @@ pub fn trace_closest(nodes: &[BvhNode], tris: &[TriangleGeom], origin: Vec3, dir
                 }
             }
         } else {
-            // Visit the nearer child first: push it last.
+            // Visit the nearer child first, the farther one after it (from the stack).
             let l = node.first_index;
             let r = l + 1;
             let (tl, tr) = boxes.pair(nodes, l as usize, best.t);
@@ -212,12 +207,24 @@ pub fn trace_closest(nodes: &[BvhNode], tris: &[TriangleGeom], origin: Vec3, dir
                 sp += 1;
             }
             if t_near != f32::INFINITY {
-                stack[sp].write((near, t_near));
-                sp += 1;
+                node_index = near;
+                continue;
+            }
+        }
+        // Pop the next node that a hit found since it was pushed does not rule out.
+        loop {
+            if sp == 0 {
+                return (best.triangle != u32::MAX).then_some(best);
+            }
+            sp -= 1;
+            // SAFETY: entries below `sp` were written before (the push site writes before incrementing `sp`).
+            let (index, t_entry) = unsafe { stack[sp].assume_init() };
+            if t_entry <= best.t {
+                node_index = index;
+                break;
             }
         }
     }
-    (best.triangle != u32::MAX).then_some(best)
 }
 
 /// True when anything blocks the segment (0, t_max).
@@ -227,14 +234,12 @@ pub fn trace_occluded(nodes: &[BvhNode], tris: &[TriangleGeom], origin: Vec3, di
         return false;
     }
     let boxes = RayBoxes::new(origin, inv_dir);
-    // Only nodes whose box the segment enters are pushed, so a popped node needs no second box test.
+    // Only nodes whose box the segment enters are visited or pushed, so a popped node needs no second box test.
     let mut stack = stack_storage::<u32>();
-    let mut sp = 1usize;
-    stack[0].write(0);
-    while sp > 0 {
-        sp -= 1;
-        // SAFETY: entries below `sp` were written before (the push sites write before incrementing `sp`).
-        let node = &nodes[unsafe { stack[sp].assume_init() } as usize];
+    let mut sp = 0usize;
+    let mut node_index = 0u32;
+    loop {
+        let node = &nodes[node_index as usize];
         if node.prim_count > 0 {
             let first = node.first_index as usize;
             for tri in &tris[first..first + node.prim_count as usize] {
@@ -245,18 +250,28 @@ pub fn trace_occluded(nodes: &[BvhNode], tris: &[TriangleGeom], origin: Vec3, di
                 }
             }
         } else {
-            // Test both child boxes here and push only those the segment enters (any order finds a blocker).
+            // Test both child boxes here; visit the left one next if the segment enters it, push the right one
+            // if it enters that too (any order finds a blocker).
             let l = node.first_index;
             let (tl, tr) = boxes.pair(nodes, l as usize, t_max);
             if tl != f32::INFINITY {
-                stack[sp].write(l);
-                sp += 1;
+                if tr != f32::INFINITY {
+                    stack[sp].write(l + 1);
+                    sp += 1;
+                }
+                node_index = l;
+                continue;
             }
             if tr != f32::INFINITY {
-                stack[sp].write(l + 1);
-                sp += 1;
+                node_index = l + 1;
+                continue;
             }
         }
+        if sp == 0 {
+            return false;
+        }
+        sp -= 1;
+        // SAFETY: entries below `sp` were written before (the push site writes before incrementing `sp`).
+        node_index = unsafe { stack[sp].assume_init() };
     }
-    false
 }
