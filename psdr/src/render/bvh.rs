@@ -61,7 +61,9 @@ pub fn intersect_triangle(tri: &TriangleGeom, origin: Vec3, dir: Vec3) -> Option
 /// the operands are never NaN because `safe_inverse` keeps 1/d finite). Elsewhere it is two `intersect_aabb` calls.
 /// CPU only: the GLSL twin calls `intersect_aabb` twice, which is what this computes.
 pub struct RayBoxes {
+    #[cfg(not(target_arch = "x86_64"))]
     origin: Vec3,
+    #[cfg(not(target_arch = "x86_64"))]
     inv_dir: Vec3,
     #[cfg(target_arch = "x86_64")]
     sse: sse::RaySse,
@@ -71,7 +73,9 @@ impl RayBoxes {
     #[inline(always)]
     pub fn new(origin: Vec3, inv_dir: Vec3) -> RayBoxes {
         RayBoxes {
+            #[cfg(not(target_arch = "x86_64"))]
             origin,
+            #[cfg(not(target_arch = "x86_64"))]
             inv_dir,
             #[cfg(target_arch = "x86_64")]
             sse: sse::RaySse::new(origin, inv_dir),
@@ -84,7 +88,6 @@ impl RayBoxes {
         let pair: &[BvhNode; 2] = nodes[l..l + 2].try_into().expect("inner nodes have two children");
         #[cfg(target_arch = "x86_64")]
         {
-            let _ = (self.origin, self.inv_dir);
             self.sse.pair(pair, t_max)
         }
         #[cfg(not(target_arch = "x86_64"))]
