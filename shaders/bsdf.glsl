@@ -54,16 +54,20 @@ float ggx_g1(vec3 w, float alpha) {
     return 2.0 / (1.0 + sqrt(1.0 + alpha * alpha * tan2));
 }
 
-float specular_probability(BsdfParams p, float eta, float cos_i) {
-    if (eta <= 1.0) {
-        return 0.0;
-    }
-    float fs = fresnel_dielectric(cos_i, eta);
+// specular_probability for eta > 1 given fs = fresnel_dielectric(cos_i, eta).
+float specular_probability_from_fresnel(BsdfParams p, float fs) {
     float fd = (1.0 - fs) * (p.albedo.x + p.albedo.y + p.albedo.z) * (1.0 / 3.0);
     if (fd <= 0.0) {
         return 1.0;
     }
     return clamp(fs / (fs + fd), 0.1, 0.9);
+}
+
+float specular_probability(BsdfParams p, float eta, float cos_i) {
+    if (eta <= 1.0) {
+        return 0.0;
+    }
+    return specular_probability_from_fresnel(p, fresnel_dielectric(cos_i, eta));
 }
 
 vec3 bsdf_eval(BsdfParams p, vec3 wi, vec3 wo) {
@@ -145,6 +149,79 @@ bool bsdf_sample(BsdfParams p, vec3 wi, float u_lobe, float u1, float u2, out Bs
         return false;
     }
     vec3 f = bsdf_eval(p, wi, wo);
+    bs = BsdfSample(wo, f / pdf, pdf);
+    return true;
+}
+
+// The BSDF at one shading point for one incident direction wi: the terms that depend on wi only, computed once
+// per path vertex and shared by next-event estimation (bsdf_eval_pdf toward the light) and BSDF sampling
+// (bsdf_sample_at). Every value equals what bsdf_eval, bsdf_pdf and bsdf_sample compute (same operations, same
+// order).
+struct BsdfAt {
+    BsdfParams p;
+    vec3 wi;
+    float eta;
+    float alpha;
+    float f_i;
+    float ps;
+    float g1_i;
+};
+
+BsdfAt bsdf_at(BsdfParams p, vec3 wi) {
+    float eta = specular_to_eta(p.specular);
+    float alpha = ggx_alpha(p.roughness);
+    float f_i = fresnel_dielectric(wi.z, eta);
+    float ps = 0.0;
+    float g1_i = 0.0;
+    if (!(eta <= 1.0)) {
+        ps = specular_probability_from_fresnel(p, f_i);
+        g1_i = ggx_g1(wi, alpha);
+    }
+    return BsdfAt(p, wi, eta, alpha, f_i, ps, g1_i);
+}
+
+// (bsdf_eval(p, wi, wo), bsdf_pdf(p, wi, wo)) for the wi of b; the pdf goes to `pdf`.
+vec3 bsdf_eval_pdf(BsdfAt b, vec3 wo, out float pdf) {
+    vec3 wi = b.wi;
+    if (wi.z <= 0.0 || wo.z <= 0.0) {
+        pdf = 0.0;
+        return vec3(0.0);
+    }
+    float f_o = fresnel_dielectric(wo.z, b.eta);
+    vec3 diffuse = b.p.albedo * (FRAC_1_PI * (1.0 - b.f_i) * (1.0 - f_o) * wo.z);
+    float pdf_diffuse = wo.z * FRAC_1_PI;
+    // eta <= 1 exactly when ps == 0 (specular_probability is at least 0.1 otherwise).
+    if (b.eta <= 1.0) {
+        pdf = pdf_diffuse;
+        return diffuse;
+    }
+    vec3 h = normalize3(wi + wo);
+    float d = ggx_d(h, b.alpha);
+    float f_h = fresnel_dielectric(dot3(wi, h), b.eta);
+    float spec = d * b.g1_i * ggx_g1(wo, b.alpha) * f_h / (4.0 * wi.z);
+    float pdf_spec = b.g1_i * d / (4.0 * wi.z);
+    pdf = b.ps * pdf_spec + (1.0 - b.ps) * pdf_diffuse;
+    return diffuse + vec3(spec);
+}
+
+// bsdf_sample(p, wi, u_lobe, u1, u2, bs) for the wi of b.
+bool bsdf_sample_at(BsdfAt b, float u_lobe, float u1, float u2, out BsdfSample bs) {
+    vec3 wi = b.wi;
+    if (wi.z <= 0.0) {
+        return false;
+    }
+    vec3 wo;
+    if (u_lobe < b.ps) {
+        vec3 h = sample_ggx_vndf(wi, b.alpha, u1, u2);
+        wo = 2.0 * dot3(wi, h) * h - wi;
+    } else {
+        wo = sample_cosine_hemisphere(u1, u2);
+    }
+    float pdf;
+    vec3 f = bsdf_eval_pdf(b, wo, pdf);
+    if (wo.z <= 0.0 || pdf <= 0.0 || isinf(pdf) || isnan(pdf)) {
+        return false;
+    }
     bs = BsdfSample(wo, f / pdf, pdf);
     return true;
 }

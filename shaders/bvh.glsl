@@ -41,45 +41,35 @@ bool intersect_triangle(TriangleGeom tri, vec3 origin, vec3 dir, out vec3 tuv) {
     vec3 e2 = tri.e2;
     vec3 p = cross3(dir, e2);
     float det = dot3(e1, p);
-    if (det == 0.0 || isinf(det) || isnan(det)) {
-        return false;
-    }
     float inv_det = 1.0 / det;
     vec3 s = origin - tri.v0;
     float u = dot3(s, p) * inv_det;
-    if (!(u >= 0.0 && u <= 1.0)) {
-        return false;
-    }
     vec3 q = cross3(s, e1);
     float v = dot3(dir, q) * inv_det;
-    if (v < 0.0 || u + v > 1.0) {
-        return false;
-    }
     float t = dot3(e2, q) * inv_det;
+    // The early-outs, evaluated together (one hard-to-predict branch instead of four on the CPU twin).
+    bool ok = (det != 0.0) && !isinf(det) && !isnan(det) && (u >= 0.0 && u <= 1.0) && !(v < 0.0) && !(u + v > 1.0);
     tuv = vec3(t, u, v);
-    return true;
+    return ok;
 }
 
 // Closest hit with t in (0, t_max); best.triangle == NONE on a miss.
 Hit trace_closest(vec3 origin, vec3 dir, float t_max) {
     vec3 inv_dir = safe_inverse(dir);
     Hit best = Hit(t_max, 0.0, 0.0, NONE);
-    // Each stack entry keeps the entry distance of its box, computed when its parent was visited: a popped
-    // node is skipped when a hit found since then is nearer (the same test as re-intersecting its box).
-    uint stack[BVH_STACK_SIZE];
-    float stack_t[BVH_STACK_SIZE];
-    uint sp = 1u;
-    stack[0] = 0u;
-    stack_t[0] = intersect_aabb(nodes[0], origin, inv_dir, best.t);
-    if (stack_t[0] == INFINITY) {
+    if (intersect_aabb(nodes[0], origin, inv_dir, best.t) == INFINITY) {
         return best;
     }
-    while (sp > 0u) {
-        sp -= 1u;
-        if (stack_t[sp] > best.t) {
-            continue;
-        }
-        BvhNode node = nodes[stack[sp]];
+    // Each stack entry keeps the entry distance of its box, computed when its parent was visited: a popped
+    // node is skipped when a hit found since then is nearer (the same test as re-intersecting its box).
+    // The nearer child of an inner node is visited next without a round trip through the stack (its entry
+    // distance is at most best.t, so the pop test would pass).
+    uint stack[BVH_STACK_SIZE];
+    float stack_t[BVH_STACK_SIZE];
+    uint sp = 0u;
+    uint node_index = 0u;
+    while (true) {
+        BvhNode node = nodes[node_index];
         if (node.prim_count > 0u) {
             for (uint i = node.first_index; i < node.first_index + node.prim_count; i++) {
                 vec3 tuv;
@@ -90,7 +80,7 @@ Hit trace_closest(vec3 origin, vec3 dir, float t_max) {
                 }
             }
         } else {
-            // Visit the nearer child first: push it last.
+            // Visit the nearer child first, the farther one after it (from the stack).
             uint l = node.first_index;
             uint r = l + 1u;
             float tl = intersect_aabb(nodes[l], origin, inv_dir, best.t);
@@ -105,10 +95,22 @@ Hit trace_closest(vec3 origin, vec3 dir, float t_max) {
                 sp += 1u;
             }
             if (t_near != INFINITY) {
-                stack[sp] = near_;
-                stack_t[sp] = t_near;
-                sp += 1u;
+                node_index = near_;
+                continue;
             }
+        }
+        // Pop the next node that a hit found since it was pushed does not rule out.
+        bool popped = false;
+        while (sp > 0u) {
+            sp -= 1u;
+            if (stack_t[sp] <= best.t) {
+                node_index = stack[sp];
+                popped = true;
+                break;
+            }
+        }
+        if (!popped) {
+            return best;
         }
     }
     return best;
@@ -120,13 +122,12 @@ bool trace_occluded(vec3 origin, vec3 dir, float t_max) {
     if (intersect_aabb(nodes[0], origin, inv_dir, t_max) == INFINITY) {
         return false;
     }
-    // Only nodes whose box the segment enters are pushed, so a popped node needs no second box test.
+    // Only nodes whose box the segment enters are visited or pushed, so a popped node needs no second box test.
     uint stack[BVH_STACK_SIZE];
-    uint sp = 1u;
-    stack[0] = 0u;
-    while (sp > 0u) {
-        sp -= 1u;
-        BvhNode node = nodes[stack[sp]];
+    uint sp = 0u;
+    uint node_index = 0u;
+    while (true) {
+        BvhNode node = nodes[node_index];
         if (node.prim_count > 0u) {
             for (uint i = node.first_index; i < node.first_index + node.prim_count; i++) {
                 vec3 tuv;
@@ -137,17 +138,29 @@ bool trace_occluded(vec3 origin, vec3 dir, float t_max) {
                 }
             }
         } else {
-            // Test both child boxes here and push only those the segment enters (any order finds a blocker).
+            // Test both child boxes here; visit the left one next if the segment enters it, push the right one
+            // if it enters that too (any order finds a blocker).
             uint l = node.first_index;
-            if (intersect_aabb(nodes[l], origin, inv_dir, t_max) != INFINITY) {
-                stack[sp] = l;
-                sp += 1u;
+            float tl = intersect_aabb(nodes[l], origin, inv_dir, t_max);
+            float tr = intersect_aabb(nodes[l + 1u], origin, inv_dir, t_max);
+            if (tl != INFINITY) {
+                if (tr != INFINITY) {
+                    stack[sp] = l + 1u;
+                    sp += 1u;
+                }
+                node_index = l;
+                continue;
             }
-            if (intersect_aabb(nodes[l + 1u], origin, inv_dir, t_max) != INFINITY) {
-                stack[sp] = l + 1u;
-                sp += 1u;
+            if (tr != INFINITY) {
+                node_index = l + 1u;
+                continue;
             }
         }
+        if (sp == 0u) {
+            return false;
+        }
+        sp -= 1u;
+        node_index = stack[sp];
     }
     return false;
 }

@@ -79,6 +79,7 @@ PathSample trace_path(uint px, uint py, uint sample_) {
             break;
         }
         vec3 wi = to_local(sp, -dir);
+        BsdfAt bsdf = bsdf_at(sp.bsdf, wi);
         // Next-event estimation: one point on one light.
         if (fp.light_count > 0u) {
             LightSample ls = sample_light(
@@ -92,12 +93,13 @@ PathSample trace_path(uint px, uint py, uint sample_) {
             vec3 wl = to_light / dist;
             float cos_l = ls.two_sided ? abs(dot3(ls.n, -wl)) : dot3(ls.n, -wl);
             if (cos_l > 0.0 && dist > 0.0) {
-                vec3 f = bsdf_eval(sp.bsdf, wi, to_local(sp, wl));
+                float pdf;
+                vec3 f = bsdf_eval_pdf(bsdf, to_local(sp, wl), pdf);
                 if (f != vec3(0.0)) {
                     out_.rays += 1u;
                     if (unoccluded(sp.p, sp.ng, ls.p, ls.n)) {
                         float light_pdf = ls.pdf_area * dist2 / cos_l;
-                        float w = mis_power(light_pdf, bsdf_pdf(sp.bsdf, wi, to_local(sp, wl)));
+                        float w = mis_power(light_pdf, pdf);
                         out_.radiance += beta * f * ls.radiance * (w / light_pdf);
                     }
                 }
@@ -105,8 +107,8 @@ PathSample trace_path(uint px, uint py, uint sample_) {
         }
         // Continue the path by sampling the BSDF.
         BsdfSample bs;
-        if (!bsdf_sample(sp.bsdf, wi, sampler_bounce(s, depth, DIM_LOBE), sampler_bounce(s, depth, DIM_BSDF_U),
-                         sampler_bounce(s, depth, DIM_BSDF_V), bs)) {
+        if (!bsdf_sample_at(bsdf, sampler_bounce(s, depth, DIM_LOBE), sampler_bounce(s, depth, DIM_BSDF_U),
+                            sampler_bounce(s, depth, DIM_BSDF_V), bs)) {
             break;
         }
         beta *= bs.weight;

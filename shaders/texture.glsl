@@ -4,7 +4,11 @@
 #define PSDR_TEXTURE_GLSL
 #include "scene_buffers.glsl"
 
+// i mod n in [0, n); the common in-range case skips the two integer divisions (same value either way).
 int wrap(int i, int n) {
+    if (uint(i) < uint(n)) {
+        return i;
+    }
     return ((i % n) + n) % n;
 }
 

@@ -76,7 +76,12 @@ pub fn specular_probability(p: &BsdfParams, eta: f32, cos_i: f32) -> f32 {
     if eta <= 1.0 {
         return 0.0;
     }
-    let fs = fresnel_dielectric(cos_i, eta);
+    specular_probability_from_fresnel(p, fresnel_dielectric(cos_i, eta))
+}
+
+/// `specular_probability` for eta > 1 given fs = fresnel_dielectric(cos_i, eta).
+#[inline(always)]
+pub fn specular_probability_from_fresnel(p: &BsdfParams, fs: f32) -> f32 {
     let fd = (1.0 - fs) * (p.albedo.x + p.albedo.y + p.albedo.z) * (1.0 / 3.0);
     if fd <= 0.0 {
         return 1.0;
@@ -174,4 +179,119 @@ pub fn bsdf_sample(p: &BsdfParams, wi: Vec3, u_lobe: f32, u1: f32, u2: f32) -> O
     }
     let f = bsdf_eval(p, wi, wo);
     Some(BsdfSample { wo, weight: f / pdf, pdf })
+}
+
+/// The BSDF at one shading point for one incident direction wi: the terms that depend on wi only, computed once
+/// per path vertex and shared by next-event estimation (`bsdf_eval_pdf` toward the light) and BSDF sampling
+/// (`bsdf_sample_at`). Every value equals what `bsdf_eval`, `bsdf_pdf` and `bsdf_sample` compute: the same
+/// operations in the same order, without computing the IOR, Fresnel(wi), G1(wi), the half vector and D(h) up
+/// to five times per vertex (the test below checks the bits).
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfAt {
+    pub p: BsdfParams,
+    pub wi: Vec3,
+    pub eta: f32,
+    pub alpha: f32,
+    /// fresnel_dielectric(wi.z, eta).
+    pub f_i: f32,
+    /// specular_probability(p, eta, wi.z).
+    pub ps: f32,
+    /// ggx_g1(wi, alpha) (0 when eta <= 1: the specular lobe is absent and never evaluated).
+    pub g1_i: f32,
+}
+
+#[inline(always)]
+pub fn bsdf_at(p: &BsdfParams, wi: Vec3) -> BsdfAt {
+    let eta = specular_to_eta(p.specular);
+    let alpha = ggx_alpha(p.roughness);
+    let f_i = fresnel_dielectric(wi.z, eta);
+    let (ps, g1_i) =
+        if eta <= 1.0 { (0.0, 0.0) } else { (specular_probability_from_fresnel(p, f_i), ggx_g1(wi, alpha)) };
+    BsdfAt { p: *p, wi, eta, alpha, f_i, ps, g1_i }
+}
+
+/// (bsdf_eval(p, wi, wo), bsdf_pdf(p, wi, wo)) for the wi of `b`.
+#[inline(always)]
+pub fn bsdf_eval_pdf(b: &BsdfAt, wo: Vec3) -> (Vec3, f32) {
+    let wi = b.wi;
+    if wi.z <= 0.0 || wo.z <= 0.0 {
+        return (Vec3::ZERO, 0.0);
+    }
+    let f_o = fresnel_dielectric(wo.z, b.eta);
+    let diffuse = b.p.albedo * (FRAC_1_PI * (1.0 - b.f_i) * (1.0 - f_o) * wo.z);
+    let pdf_diffuse = wo.z * FRAC_1_PI;
+    // eta <= 1 exactly when ps == 0 (specular_probability is at least 0.1 otherwise).
+    if b.eta <= 1.0 {
+        return (diffuse, pdf_diffuse);
+    }
+    let h = (wi + wo).normalize();
+    let d = ggx_d(h, b.alpha);
+    let f_h = fresnel_dielectric(wi.dot(h), b.eta);
+    let spec = d * b.g1_i * ggx_g1(wo, b.alpha) * f_h / (4.0 * wi.z);
+    let pdf_spec = b.g1_i * d / (4.0 * wi.z);
+    (diffuse + Vec3::splat(spec), b.ps * pdf_spec + (1.0 - b.ps) * pdf_diffuse)
+}
+
+/// bsdf_sample(p, wi, u_lobe, u1, u2) for the wi of `b`.
+#[inline(always)]
+pub fn bsdf_sample_at(b: &BsdfAt, u_lobe: f32, u1: f32, u2: f32) -> Option<BsdfSample> {
+    let wi = b.wi;
+    if wi.z <= 0.0 {
+        return None;
+    }
+    let wo = if u_lobe < b.ps {
+        let h = sample_ggx_vndf(wi, b.alpha, u1, u2);
+        2.0 * wi.dot(h) * h - wi
+    } else {
+        sample_cosine_hemisphere(u1, u2)
+    };
+    let (f, pdf) = bsdf_eval_pdf(b, wo);
+    if wo.z <= 0.0 || pdf <= 0.0 || !pdf.is_finite() {
+        return None;
+    }
+    Some(BsdfSample { wo, weight: f / pdf, pdf })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::sampler::sample_1d;
+
+    fn bits(v: Vec3) -> [u32; 3] {
+        v.to_array().map(f32::to_bits)
+    }
+
+    /// The shared-term functions give the same bits as bsdf_eval, bsdf_pdf and bsdf_sample, over random
+    /// materials (including specular 0, roughness 0 and black albedo) and directions (including below the surface).
+    #[test]
+    fn shared_terms_give_the_same_bits_as_the_separate_functions() {
+        let u = |i: u32, d: u32| sample_1d(11, i, 0, d);
+        let dir = |i: u32, d: u32| {
+            let v = Vec3::new(u(i, d) * 2.0 - 1.0, u(i, d + 1) * 2.0 - 1.0, u(i, d + 2) * 2.0 - 0.3);
+            v.normalize()
+        };
+        for i in 0..200_000 {
+            let pick = |x: f32, d: u32| if u(i, d) < 0.15 { x } else { u(i, d + 1) };
+            let p = BsdfParams {
+                albedo: Vec3::new(pick(0.0, 0), u(i, 2), u(i, 3)),
+                roughness: pick(0.0, 4),
+                specular: pick(0.0, 6),
+            };
+            let (wi, wo) = (dir(i, 8), dir(i, 11));
+            let b = bsdf_at(&p, wi);
+            let (f, pdf) = bsdf_eval_pdf(&b, wo);
+            assert_eq!(bits(f), bits(bsdf_eval(&p, wi, wo)), "{p:?} {wi} {wo}");
+            assert_eq!(pdf.to_bits(), bsdf_pdf(&p, wi, wo).to_bits(), "{p:?} {wi} {wo}");
+            let (a, b1, b2) = (u(i, 14), u(i, 15), u(i, 16));
+            match (bsdf_sample_at(&b, a, b1, b2), bsdf_sample(&p, wi, a, b1, b2)) {
+                (None, None) => {}
+                (Some(x), Some(y)) => {
+                    assert_eq!(bits(x.wo), bits(y.wo));
+                    assert_eq!(bits(x.weight), bits(y.weight));
+                    assert_eq!(x.pdf.to_bits(), y.pdf.to_bits());
+                }
+                (x, y) => panic!("{p:?} {wi}: {:?} vs {:?}", x.map(|s| s.wo), y.map(|s| s.wo)),
+            }
+        }
+    }
 }

@@ -1,7 +1,7 @@
 //! The primal integrator: unidirectional path tracing with next-event estimation, MIS (power heuristic)
 //! and Russian roulette, plus the primary-hit AOVs. GLSL twin: shaders/path_trace.comp.
 
-use super::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample};
+use super::bsdf::{bsdf_at, bsdf_eval_pdf, bsdf_sample_at};
 use super::bvh::{trace_closest, trace_occluded};
 use super::camera::camera_ray;
 use super::layout::*;
@@ -61,6 +61,7 @@ pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32
             break;
         }
         let wi = sp.to_local(-dir);
+        let bsdf = bsdf_at(&sp.bsdf, wi);
         // Next-event estimation: one point on one light.
         if fp.light_count > 0 {
             let ls = sample_light(
@@ -76,25 +77,21 @@ pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32
             let wl = to_light / dist;
             let cos_l = if ls.two_sided { ls.n.dot(-wl).abs() } else { ls.n.dot(-wl) };
             if cos_l > 0.0 && dist > 0.0 {
-                let f = bsdf_eval(&sp.bsdf, wi, sp.to_local(wl));
+                let (f, pdf) = bsdf_eval_pdf(&bsdf, sp.to_local(wl));
                 if f != Vec3::ZERO {
                     out.rays += 1;
                     if unoccluded(d, sp.p, sp.ng, ls.p, ls.n) {
                         let light_pdf = ls.pdf_area * dist2 / cos_l;
-                        let w = mis_power(light_pdf, bsdf_pdf(&sp.bsdf, wi, sp.to_local(wl)));
+                        let w = mis_power(light_pdf, pdf);
                         out.radiance += beta * f * ls.radiance * (w / light_pdf);
                     }
                 }
             }
         }
         // Continue the path by sampling the BSDF.
-        let Some(bs) = bsdf_sample(
-            &sp.bsdf,
-            wi,
-            s.bounce(depth, DIM_LOBE),
-            s.bounce(depth, DIM_BSDF_U),
-            s.bounce(depth, DIM_BSDF_V),
-        ) else {
+        let Some(bs) =
+            bsdf_sample_at(&bsdf, s.bounce(depth, DIM_LOBE), s.bounce(depth, DIM_BSDF_U), s.bounce(depth, DIM_BSDF_V))
+        else {
             break;
         };
         beta *= bs.weight;

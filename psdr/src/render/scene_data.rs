@@ -104,7 +104,7 @@ impl SceneData {
             })
             .collect();
         if !aabbs.is_empty() {
-            let bvh = build_bvh2(&aabbs, BvhBuildParams::medium_build(), &mut Duration::default());
+            let bvh = build_bvh2(&aabbs, bvh_build_params(), &mut Duration::default());
             let depth = tree_depth(&bvh.nodes);
             if depth + 2 > BVH_STACK_SIZE {
                 return Err(Error::Invalid(format!(
@@ -223,6 +223,15 @@ fn material(m: &crate::scene::Material) -> MaterialGpu {
         uv_row0: [r0[0], r0[1], r0[2], 0.0],
         uv_row1: [r1[0], r1[1], r1[2], 0.0],
     }
+}
+
+/// obvhs's medium build (PLOC + reinsertion) with leaves collapsed only where that is cheaper at a traversal
+/// cost of 1 (one box pair per triangle) instead of medium's 3: our box-pair test (SSE on the CPU) is about as
+/// costly as one Moller-Trumbore test, so medium's 8-triangle leaves made traversal test ~4x more triangles than
+/// needed. Measured on the example room (callgrind, 64x48 at 16 spp): triangle tests per closest-hit ray 9.3 -> 2.3,
+/// node visits 6.0 -> 9.0, whole render -13 % instructions. Both backends trace this same tree.
+pub fn bvh_build_params() -> BvhBuildParams {
+    BvhBuildParams { collapse_traversal_cost: 1.0, ..BvhBuildParams::medium_build() }
 }
 
 /// Depth of the tree (root = 1); traversal pushes at most one sibling per level, so the stack needs `depth`.
