@@ -115,16 +115,21 @@ impl SceneData {
             let order = &bvh.primitive_indices;
             d.triangles = order.iter().map(|&i| tris[i as usize]).collect();
             d.shading = order.iter().map(|&i| shading[i as usize]).collect();
-            light_weight_of = order.iter().map(|&i| light_weight_of[i as usize]).collect();
             d.triangle_source = order.clone();
             d.nodes = bvh.nodes;
         }
-        // Light distribution: emitting triangles chosen proportionally to area x luminance.
+        // Light distribution: emitting triangles chosen proportionally to area x luminance, listed in scene
+        // order so that the BVH build (leaf sizes, build quality) never changes which light a sample picks.
         let total: f64 = light_weight_of.iter().map(|&w| w as f64).sum();
         d.light_weight = total as f32;
         if total > 0.0 {
+            let mut bvh_position = vec![0u32; d.triangle_source.len()];
+            for (at, &src) in d.triangle_source.iter().enumerate() {
+                bvh_position[src as usize] = at as u32;
+            }
             let mut acc = 0.0f64;
-            for (ti, &w) in light_weight_of.iter().enumerate() {
+            for (src, &w) in light_weight_of.iter().enumerate() {
+                let ti = bvh_position[src] as usize;
                 if w > 0.0 {
                     acc += w as f64;
                     d.triangles[ti].light = d.lights.len() as u32;
