@@ -56,6 +56,10 @@ fn cube_on_the_floor_and_lifted() {
         let loss = ImageLoss::L2To { output: Output::Radiance, target: t.radiance };
         let (a, _) = check(&s, "object/cube/translation", &loss, 0.01, OPTS);
         assert!(a.mean[0] < 0.0, "moving toward the target must lower the loss: {:?}", a.mean);
+        // The loss of the primal renders the adjoints came from, for the optimiser.
+        let first = render_cpu(&SceneData::build(&s).unwrap(), &s.settings, &|_, _| {});
+        let l = a.loss.expect("an L2 loss renders its primal");
+        assert!(l > 0.0 && (l / loss.eval(&first).unwrap() - 1.0).abs() < 0.2, "loss {l}");
     }
 }
 

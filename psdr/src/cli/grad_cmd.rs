@@ -109,9 +109,10 @@ pub fn run(a: GradArgs) -> anyhow::Result<()> {
         }
         let (w, h, spp) = (scene.camera.width, scene.camera.height, scene.settings.spp);
         match &ad {
-            Ok(_) => {
+            Ok(g) => {
+                let loss = g.loss.map(|l| format!(", loss {l:.6e}")).unwrap_or_default();
                 println!(
-                    "AD: {w}x{h} at {spp} spp, sppe {}, sppse {}, {} replicas, {ad_s:.2} s (CPU)",
+                    "AD: {w}x{h} at {spp} spp, sppe {}, sppse {}, {} replicas, {ad_s:.2} s (CPU){loss}",
                     a.sppe, a.sppse, a.replicas
                 )
             }

@@ -16,6 +16,9 @@ pub struct AdEstimate {
     pub mean: Vec<f64>,
     pub std_err: Vec<f64>,
     pub replicas: u32,
+    /// The loss on the primal renders the adjoints came from, averaged over replicas; None for losses whose
+    /// adjoint needs no render (then none was made). An optimiser gets its loss value without another render.
+    pub loss: Option<f64>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -70,12 +73,14 @@ pub fn analytic_gradient(
         primary: opts.edge_samples,
         secondary: if radiance { opts.secondary_edge_samples } else { 0 },
     };
-    let mut runs = vec![];
+    let (mut runs, mut losses) = (vec![], vec![]);
     for r in 0..opts.replicas.max(1) {
         let mut settings = scene.settings.clone();
         settings.seed = scene.settings.seed.wrapping_add(r);
         let adjoint = if loss.needs_primal() {
-            loss.adjoint(&backend.render(&data, &settings, &|_, _| {})?)?
+            let primal = backend.render(&data, &settings, &|_, _| {})?;
+            losses.push(loss.eval(&primal)?);
+            loss.adjoint(&primal)?
         } else {
             loss.adjoint(&blank)?
         };
@@ -106,7 +111,8 @@ pub fn analytic_gradient(
         mean.push(m);
         std_err.push(se);
     }
-    Ok(AdEstimate { mean, std_err, replicas: opts.replicas.max(1) })
+    let loss = (!losses.is_empty()).then(|| losses.iter().sum::<f64>() / losses.len() as f64);
+    Ok(AdEstimate { mean, std_err, replicas: opts.replicas.max(1), loss })
 }
 
 /// A black frame of the scene's size (all AOVs zero): enough for losses whose adjoint ignores the image.
