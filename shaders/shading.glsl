@@ -42,16 +42,13 @@ vec2 apply_uv_transform(MaterialGpu m, vec2 uv) {
         m.uv_row1.x * uv.x + m.uv_row1.y * uv.y + m.uv_row1.z);
 }
 
-SurfacePoint surface_point(uint ti, float u, float v, vec3 dir) {
+// The geometric normal and the interpolated shading normal (before normal mapping) at barycentrics (u, v) of
+// triangle ti, both flipped to the side dir arrives from, and whether that side is the front.
+void facing_normals(uint ti, float u, float v, vec3 dir, out vec3 ng, out vec3 ns, out bool front) {
     TriangleGeom tri = triangles[ti];
     TriangleShading sh = shading[ti];
-    MaterialGpu mat = materials[tri.material];
-    vec3 e1 = tri.e1;
-    vec3 e2 = tri.e2;
-    vec3 p = tri.v0 + e1 * u + e2 * v;
-    vec3 ng = normalize3(cross3(e1, e2));
+    ng = normalize3(cross3(tri.e1, tri.e2));
     float w = 1.0 - u - v;
-    vec3 ns;
     if ((sh.flags & SHADING_HAS_NORMALS) != 0u) {
         vec3 n = sh.n0 * w + sh.n1 * u + sh.n2 * v;
         float len = length3(n);
@@ -59,13 +56,27 @@ SurfacePoint surface_point(uint ti, float u, float v, vec3 dir) {
     } else {
         ns = ng;
     }
-    bool front = dot3(ng, dir) < 0.0;
+    front = dot3(ng, dir) < 0.0;
     if (!front) {
         ng = -ng;
     }
     if (dot3(ns, ng) < 0.0) {
         ns = -ns;
     }
+}
+
+SurfacePoint surface_point(uint ti, float u, float v, vec3 dir) {
+    TriangleGeom tri = triangles[ti];
+    TriangleShading sh = shading[ti];
+    MaterialGpu mat = materials[tri.material];
+    vec3 e1 = tri.e1;
+    vec3 e2 = tri.e2;
+    vec3 p = tri.v0 + e1 * u + e2 * v;
+    vec3 ng;
+    vec3 ns;
+    bool front;
+    facing_normals(ti, u, v, dir, ng, ns, front);
+    float w = 1.0 - u - v;
     vec2 uv0 = sh.uv0;
     vec2 uv1 = sh.uv1;
     vec2 uv2 = sh.uv2;

@@ -8,8 +8,8 @@
 use super::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
 use super::dual::{D, D3};
 use super::geometry_interior::dual_texture;
-use crate::render::layout::{MaterialGpu, TextureGpu, NONE, SHADING_HAS_NORMALS, SHADING_HAS_UVS};
-use crate::render::shading::{apply_uv_transform, orthogonal, surface_point, SurfacePoint};
+use crate::render::layout::{MaterialGpu, TextureGpu, NONE, SHADING_HAS_UVS};
+use crate::render::shading::{apply_uv_transform, facing_normals, orthogonal, surface_point, SurfacePoint};
 use crate::render::texture::texture_sample_rgb;
 use crate::render::SceneData;
 use glam::{Mat3, Vec2, Vec3};
@@ -56,25 +56,8 @@ impl<'a> MapInputs<'a> {
         }
         let sh = &d.shading[ti as usize];
         let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
-        let mut ng = e1.cross(e2).normalize();
+        let (ng, ns, _) = facing_normals(d, ti, u, v, incoming);
         let w = 1.0 - u - v;
-        let mut ns = if sh.flags & SHADING_HAS_NORMALS != 0 {
-            let n = Vec3::from(sh.n0) * w + Vec3::from(sh.n1) * u + Vec3::from(sh.n2) * v;
-            let len = n.length();
-            if len > 0.0 {
-                n / len
-            } else {
-                ng
-            }
-        } else {
-            ng
-        };
-        if ng.dot(incoming) >= 0.0 {
-            ng = -ng;
-        }
-        if ns.dot(ng) < 0.0 {
-            ns = -ns;
-        }
         let has_uvs = sh.flags & SHADING_HAS_UVS != 0;
         let uv = [Vec2::from(sh.uv0), Vec2::from(sh.uv1), Vec2::from(sh.uv2)];
         let uv_hit = if has_uvs { uv[0] * w + uv[1] * u + uv[2] * v } else { Vec2::new(u, v) };

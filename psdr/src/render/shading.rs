@@ -53,16 +53,13 @@ pub fn apply_uv_transform(m: &MaterialGpu, uv: Vec2) -> Vec2 {
     )
 }
 
-/// Builds the surface point for a hit at barycentrics (u, v) of triangle `ti`, seen along `dir`.
+/// The geometric normal and the interpolated shading normal (before normal mapping) at barycentrics (u, v) of
+/// triangle `ti`, both flipped to the side `dir` arrives from, and whether that side is the front.
 #[inline(always)]
-pub fn surface_point(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> SurfacePoint {
+pub fn facing_normals(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> (Vec3, Vec3, bool) {
     let tri = &d.triangles[ti as usize];
     let sh = &d.shading[ti as usize];
-    let mat = &d.materials[tri.material as usize];
-    let e1 = Vec3::from(tri.e1);
-    let e2 = Vec3::from(tri.e2);
-    let p = Vec3::from(tri.v0) + e1 * u + e2 * v;
-    let mut ng = e1.cross(e2).normalize();
+    let mut ng = Vec3::from(tri.e1).cross(Vec3::from(tri.e2)).normalize();
     let w = 1.0 - u - v;
     let mut ns = if sh.flags & SHADING_HAS_NORMALS != 0 {
         let n = Vec3::from(sh.n0) * w + Vec3::from(sh.n1) * u + Vec3::from(sh.n2) * v;
@@ -82,6 +79,20 @@ pub fn surface_point(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> Surfa
     if ns.dot(ng) < 0.0 {
         ns = -ns;
     }
+    (ng, ns, front)
+}
+
+/// Builds the surface point for a hit at barycentrics (u, v) of triangle `ti`, seen along `dir`.
+#[inline(always)]
+pub fn surface_point(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> SurfacePoint {
+    let tri = &d.triangles[ti as usize];
+    let sh = &d.shading[ti as usize];
+    let mat = &d.materials[tri.material as usize];
+    let e1 = Vec3::from(tri.e1);
+    let e2 = Vec3::from(tri.e2);
+    let p = Vec3::from(tri.v0) + e1 * u + e2 * v;
+    let (ng, mut ns, front) = facing_normals(d, ti, u, v, dir);
+    let w = 1.0 - u - v;
     let uv0 = Vec2::from(sh.uv0);
     let uv1 = Vec2::from(sh.uv1);
     let uv2 = Vec2::from(sh.uv2);
