@@ -42,6 +42,21 @@ vec2 apply_uv_transform(MaterialGpu m, vec2 uv) {
         m.uv_row1.x * uv.x + m.uv_row1.y * uv.y + m.uv_row1.z);
 }
 
+// The cosine below which a viewer may not see a (normal-mapped or interpolated) shading normal.
+const float TERMINATOR_COS = 0.01;
+
+// Re-orthonormalises the tangent frame around a new shading normal, keeping the bitangent's handedness.
+void reframe(vec3 ns, inout vec3 tangent, inout vec3 bitangent) {
+    tangent = tangent - ns * dot3(ns, tangent);
+    float tl = length3(tangent);
+    tangent = tl > 1e-12 ? tangent / tl : orthogonal(ns);
+    bool flip = dot3(bitangent, cross3(ns, tangent)) < 0.0;
+    bitangent = cross3(ns, tangent);
+    if (flip) {
+        bitangent = -bitangent;
+    }
+}
+
 // The geometric normal and the interpolated shading normal (before normal mapping) at barycentrics (u, v) of
 // triangle ti, both flipped to the side dir arrives from, and whether that side is the front.
 void facing_normals(uint ti, float u, float v, vec3 dir, out vec3 ng, out vec3 ns, out bool front) {
@@ -103,6 +118,7 @@ SurfacePoint surface_point(uint ti, float u, float v, vec3 dir) {
             bitangent = -bitangent;
         }
     }
+    bool bent = (sh.flags & SHADING_HAS_NORMALS) != 0u;
     if (mat.normal_tex != NONE) {
         TextureGpu t = textures[mat.normal_tex];
         vec3 m = texture_sample_rgb(t, uvt) * 2.0 - vec3(1.0);
@@ -110,15 +126,18 @@ SurfacePoint surface_point(uint ti, float u, float v, vec3 dir) {
         float len = length3(n);
         if (len > 0.0 && dot3(n, ng) > 0.0) {
             ns = n / len;
-            tangent = tangent - ns * dot3(ns, tangent);
-            float tl2 = length3(tangent);
-            tangent = tl2 > 1e-12 ? tangent / tl2 : orthogonal(ns);
-            bool flip = dot3(bitangent, cross3(ns, tangent)) < 0.0;
-            bitangent = cross3(ns, tangent);
-            if (flip) {
-                bitangent = -bitangent;
-            }
+            reframe(ns, tangent, bitangent);
+            bent = true;
         }
+    }
+    // A shading normal that differs from the geometric one can face away from the viewer (normal maps,
+    // interpolated normals near silhouettes); it is turned toward the viewer until seen at cosine
+    // TERMINATOR_COS. The BSDF then stays continuous in the view direction: no black terminator in images,
+    // and no discontinuity that gradients would need a boundary term for.
+    float c = dot3(ns, -dir);
+    if (bent && c < TERMINATOR_COS) {
+        ns = normalize3(ns - dir * (TERMINATOR_COS - c));
+        reframe(ns, tangent, bitangent);
     }
     vec3 albedo = mat.albedo_tex != NONE ? texture_sample_rgb(textures[mat.albedo_tex], uvt) : mat.albedo;
     float roughness = mat.roughness_tex != NONE ? texture_sample(textures[mat.roughness_tex], uvt, 0u) : mat.roughness;

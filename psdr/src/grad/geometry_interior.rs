@@ -6,7 +6,7 @@
 
 use super::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
 use super::dual::{D, D3};
-use super::normal_map_grad::{map_normal_dual, UvFrame};
+use super::normal_map_grad::{map_normal_dual, turn_toward_viewer, UvFrame};
 use super::path_record::PathRecord;
 use super::pose_velocity::{PoseComponent, PoseLayout};
 use crate::render::layout::{MaterialGpu, TextureGpu, TriangleShading, NONE, SHADING_HAS_NORMALS, SHADING_HAS_UVS};
@@ -153,8 +153,14 @@ fn dual_point(d: &SceneData, tg: &Tangent, ti: u32, tri: &DualTriangle, u: D, v:
         let (r, g, b) = (c(0), c(1), c(2));
         D3 { v: Vec3::new(r.v, g.v, b.v), d: Vec3::new(r.d, g.d, b.d) }
     };
+    let mut bent = sh.flags & SHADING_HAS_NORMALS != 0;
     if mat.normal_tex != NONE {
-        ns = normal_mapped(mat, sh, tri, ns, ng, rgb(mat.normal_tex));
+        if let Some(n) = normal_mapped(mat, sh, tri, ns, ng, rgb(mat.normal_tex)) {
+            (ns, bent) = (n, true);
+        }
+    }
+    if bent {
+        ns = turn_toward_viewer(ns, incoming);
     }
     let albedo = if mat.albedo_tex != NONE { rgb(mat.albedo_tex) } else { D3::c(Vec3::from(mat.albedo)) };
     // The primal clamps to [0, 1]; clamped channels do not move.
@@ -172,7 +178,7 @@ fn dual_point(d: &SceneData, tg: &Tangent, ti: u32, tri: &DualTriangle, u: D, v:
 
 /// `render::shading::surface_point`'s normal mapping with the tangent frame following the moving triangle
 /// (uvs are fixed per vertex, so the uv Jacobian is constant) and the map value `texel` sliding with the uv.
-fn normal_mapped(mat: &MaterialGpu, sh: &TriangleShading, tri: &DualTriangle, ns: D3, ng: D3, texel: D3) -> D3 {
+fn normal_mapped(mat: &MaterialGpu, sh: &TriangleShading, tri: &DualTriangle, ns: D3, ng: D3, texel: D3) -> Option<D3> {
     let uvt = |uv: [f32; 2]| apply_uv_transform(mat, Vec2::from(uv));
     let (duv1, duv2) = (uvt(sh.uv1) - uvt(sh.uv0), uvt(sh.uv2) - uvt(sh.uv0));
     let frame = UvFrame {

@@ -9,7 +9,9 @@ use super::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
 use super::dual::{D, D3};
 use super::geometry_interior::dual_texture;
 use crate::render::layout::{MaterialGpu, TextureGpu, NONE, SHADING_HAS_UVS};
-use crate::render::shading::{apply_uv_transform, facing_normals, orthogonal, surface_point, SurfacePoint};
+use crate::render::shading::{
+    apply_uv_transform, facing_normals, orthogonal, surface_point, SurfacePoint, TERMINATOR_COS,
+};
 use crate::render::texture::texture_sample_rgb;
 use crate::render::SceneData;
 use glam::{Mat3, Vec2, Vec3};
@@ -23,11 +25,12 @@ pub fn normal_map_jacobian(d: &SceneData, ti: u32, u: f32, v: f32, incoming: Vec
         [D::c(q.x), D::c(q.y)]
     });
     let texel = texture_sample_rgb(&d.texels, h.map, h.uvt);
-    let column = |axis: Vec3| map_normal_dual(h.e1, h.e2, h.ns, h.ng, &frame, D3 { v: texel, d: axis });
-    let (r, g, b) = (column(Vec3::X), column(Vec3::Y), column(Vec3::Z));
-    if (r.v - h.sp.ns).length() > 1e-5 {
-        return None; // the map was not applied: n_s does not depend on it
-    }
+    // None where the map was not applied: n_s does not depend on it.
+    let column = |axis: Vec3| {
+        map_normal_dual(h.e1, h.e2, h.ns, h.ng, &frame, D3 { v: texel, d: axis }).map(|n| turn_toward_viewer(n, h.dir))
+    };
+    let (r, g, b) = (column(Vec3::X)?, column(Vec3::Y)?, column(Vec3::Z)?);
+    debug_assert!((r.v - h.sp.ns).length() < 1e-5, "the rebuilt mapping must reproduce surface_point's");
     Some((h.sp, Mat3::from_cols(r.d, g.d, b.d)))
 }
 
@@ -45,6 +48,8 @@ struct MapInputs<'a> {
     uv_hit: Vec2,
     uvt: Vec2,
     has_uvs: bool,
+    /// The incoming ray's direction.
+    dir: Vec3,
 }
 
 impl<'a> MapInputs<'a> {
@@ -73,6 +78,7 @@ impl<'a> MapInputs<'a> {
             uv_hit,
             uvt: apply_uv_transform(mat, uv_hit),
             has_uvs,
+            dir: incoming,
         })
     }
 
@@ -94,7 +100,7 @@ pub struct UvFrame {
 /// `render::shading::surface_point`'s normal mapping in duals: the tangent frame from the (dual) triangle edges
 /// and uv differences, orthonormalised against the (dual) unmapped normal `ns`, then the map value `texel`.
 /// The frame's fallback for degenerate uvs (`orthogonal`) is held constant.
-pub fn map_normal_dual(e1: D3, e2: D3, ns: D3, ng: Vec3, f: &UvFrame, texel: D3) -> D3 {
+pub fn map_normal_dual(e1: D3, e2: D3, ns: D3, ng: Vec3, f: &UvFrame, texel: D3) -> Option<D3> {
     let [u1, v1] = f.duv1;
     let [u2, v2] = f.duv2;
     let det = u1 * v2 - v1 * u2;
@@ -111,8 +117,15 @@ pub fn map_normal_dual(e1: D3, e2: D3, ns: D3, ng: Vec3, f: &UvFrame, texel: D3)
     }
     let m = texel.mul_c(Vec3::splat(2.0)) - D3::c(Vec3::ONE);
     let n = tangent * D { v: m.v.x, d: m.d.x } + bitangent * D { v: m.v.y, d: m.d.y } + ns * D { v: m.v.z, d: m.d.z };
-    if n.v.length() > 0.0 && n.v.dot(ng) > 0.0 {
-        n.normalize()
+    (n.v.length() > 0.0 && n.v.dot(ng) > 0.0).then(|| n.normalize())
+}
+
+/// `surface_point`'s turn of a shading normal toward a viewer who would see it below cosine TERMINATOR_COS, in
+/// duals (`dir` is the incoming ray, fixed).
+pub fn turn_toward_viewer(ns: D3, dir: Vec3) -> D3 {
+    let c = ns.dot(D3::c(-dir));
+    if c.v < TERMINATOR_COS {
+        (ns - D3::c(dir) * (D::c(TERMINATOR_COS) - c)).normalize()
     } else {
         ns
     }
@@ -148,7 +161,7 @@ pub fn normal_map_uv_tangents(
         let ch = |k| dual_texture(d, h.map, h.uvt, duvt, k);
         let (r, g, b) = (ch(0), ch(1), ch(2));
         let texel = D3 { v: Vec3::new(r.v, g.v, b.v), d: Vec3::new(r.d, g.d, b.d) };
-        map_normal_dual(h.e1, h.e2, h.ns, h.ng, &frame, texel).d
+        map_normal_dual(h.e1, h.e2, h.ns, h.ng, &frame, texel).map_or(Vec3::ZERO, |n| turn_toward_viewer(n, h.dir).d)
     })
 }
 

@@ -82,6 +82,23 @@ pub fn facing_normals(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> (Vec
     (ng, ns, front)
 }
 
+/// The cosine below which a viewer may not see a (normal-mapped or interpolated) shading normal.
+pub const TERMINATOR_COS: f32 = 0.01;
+
+/// Re-orthonormalises the tangent frame around a new shading normal, keeping the bitangent's handedness.
+#[inline(always)]
+pub fn reframe(ns: Vec3, tangent: Vec3, bitangent: Vec3) -> (Vec3, Vec3) {
+    let mut tangent = tangent - ns * ns.dot(tangent);
+    let tl = tangent.length();
+    tangent = if tl > 1e-12 { tangent / tl } else { orthogonal(ns) };
+    let flip = bitangent.dot(ns.cross(tangent)) < 0.0;
+    let mut bitangent = ns.cross(tangent);
+    if flip {
+        bitangent = -bitangent;
+    }
+    (tangent, bitangent)
+}
+
 /// Builds the surface point for a hit at barycentrics (u, v) of triangle `ti`, seen along `dir`.
 #[inline(always)]
 pub fn surface_point(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> SurfacePoint {
@@ -117,6 +134,7 @@ pub fn surface_point(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> Surfa
             bitangent = -bitangent;
         }
     }
+    let mut bent = sh.flags & SHADING_HAS_NORMALS != 0;
     if mat.normal_tex != NONE {
         let t = &d.textures[mat.normal_tex as usize];
         let m = texture_sample_rgb(&d.texels, t, uvt) * 2.0 - Vec3::ONE;
@@ -124,15 +142,18 @@ pub fn surface_point(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> Surfa
         let len = n.length();
         if len > 0.0 && n.dot(ng) > 0.0 {
             ns = n / len;
-            tangent = tangent - ns * ns.dot(tangent);
-            let tl = tangent.length();
-            tangent = if tl > 1e-12 { tangent / tl } else { orthogonal(ns) };
-            let flip = bitangent.dot(ns.cross(tangent)) < 0.0;
-            bitangent = ns.cross(tangent);
-            if flip {
-                bitangent = -bitangent;
-            }
+            (tangent, bitangent) = reframe(ns, tangent, bitangent);
+            bent = true;
         }
+    }
+    // A shading normal that differs from the geometric one can face away from the viewer (normal maps,
+    // interpolated normals near silhouettes); it is turned toward the viewer until seen at cosine
+    // TERMINATOR_COS. The BSDF then stays continuous in the view direction: no black terminator in images,
+    // and no discontinuity that gradients would need a boundary term for.
+    let c = ns.dot(-dir);
+    if bent && c < TERMINATOR_COS {
+        ns = (ns - dir * (TERMINATOR_COS - c)).normalize();
+        (tangent, bitangent) = reframe(ns, tangent, bitangent);
     }
     let albedo = if mat.albedo_tex != NONE {
         texture_sample_rgb(&d.texels, &d.textures[mat.albedo_tex as usize], uvt)
