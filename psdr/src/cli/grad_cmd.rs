@@ -77,7 +77,11 @@ pub fn run(a: GradArgs) -> anyhow::Result<()> {
     let mut backend = create_backend(a.backend)?;
     for param in &params {
         let value = param.get(&scene)?;
-        println!("{param} = {value:?}");
+        if value.len() <= 12 {
+            println!("{param} = {value:?}");
+        } else {
+            println!("{param}: {} values", value.len());
+        }
         let components: Vec<usize> =
             if a.component.is_empty() { (0..value.len()).collect() } else { a.component.clone() };
         let t = Instant::now();
