@@ -38,11 +38,16 @@ fn best_of(backend: &mut dyn Backend, d: &SceneData, s: &Scene, reps: usize) -> 
     Ok((best, frame))
 }
 
+/// The Vulkan backend against the CPU backend (CSV + SVG under benchmarks/results).
+#[derive(clap::Parser)]
+struct Args {
+    /// Output CSV (the SVG goes next to it).
+    #[arg(default_value_os_t = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/backends.csv"))]
+    out: std::path::PathBuf,
+}
+
 fn main() -> anyhow::Result<()> {
-    let out = std::env::args()
-        .nth(1)
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/backends.csv"));
+    let out = <Args as clap::Parser>::parse().out;
     let mut vk = VkBackend::new(None)?;
     let mut cpu = CpuBackend;
     let mut csv = String::from(

@@ -446,39 +446,27 @@ fn run_mitsuba(case: &Case, dir: &Path, reference: &[f32]) -> anyhow::Result<(Mi
     Ok((out, primal))
 }
 
+/// Gradient speed against accuracy, psdr against Mitsuba 3 LLVM (CSV + SVG under benchmarks/results).
+#[derive(clap::Parser)]
 struct Args {
+    /// Output folder.
+    #[arg(long, default_value_os_t = Path::new(env!("CARGO_MANIFEST_DIR")).join("results"))]
     out: PathBuf,
+    /// Only redraw the chart from this CSV.
+    #[arg(long)]
     chart_only: Option<PathBuf>,
+    /// Only this case (cube_on_floor, cube_lifted, room_albedo_radiance).
+    #[arg(long)]
     only: Option<String>,
+    /// Add the 512x384 rows.
+    #[arg(long)]
     large: bool,
+    /// A smaller sweep.
+    #[arg(long)]
     quick: bool,
-    mitsuba: bool,
-}
-
-fn parse_args() -> anyhow::Result<Args> {
-    let mut a = Args {
-        out: Path::new(env!("CARGO_MANIFEST_DIR")).join("results"),
-        chart_only: None,
-        only: None,
-        large: false,
-        quick: false,
-        mitsuba: true,
-    };
-    let mut it = std::env::args().skip(1);
-    while let Some(x) = it.next() {
-        match x.as_str() {
-            "--out" => a.out = it.next().context("--out DIR")?.into(),
-            "--large" => a.large = true,
-            "--quick" => a.quick = true,
-            "--no-mitsuba" => a.mitsuba = false,
-            "--only" => a.only = Some(it.next().context("--only CASE")?),
-            "--chart-only" => a.chart_only = Some(it.next().context("--chart-only CSV")?.into()),
-            _ => {
-                bail!("unknown argument {x} (--out DIR, --large, --quick, --no-mitsuba, --only CASE, --chart-only CSV)")
-            }
-        }
-    }
-    Ok(a)
+    /// Skip Mitsuba.
+    #[arg(long)]
+    no_mitsuba: bool,
 }
 
 const CSV_HEADER: &str = "case,size,param,method,spp,sppe,sppse,seeds,seconds_iter,seconds_forward,seconds_grad,\
@@ -489,7 +477,7 @@ fn fmt_vec(v: &[f64]) -> String {
 }
 
 fn main() -> anyhow::Result<()> {
-    let args = parse_args()?;
+    let args = <Args as clap::Parser>::parse();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     if let Some(csv) = &args.chart_only {
         return write_chart(csv, threads);
@@ -553,7 +541,7 @@ fn main() -> anyhow::Result<()> {
             });
         }
         let mut primal = Value::Null;
-        if args.mitsuba {
+        if !args.no_mitsuba {
             let reference = render(&case.scene, 256, 4242)?;
             let (m, pc) = run_mitsuba(case, &work, &reference)?;
             primal = pc;

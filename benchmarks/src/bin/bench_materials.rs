@@ -18,11 +18,16 @@ fn median_ms(mut f: impl FnMut(), reps: usize) -> f64 {
     t[reps / 2]
 }
 
+/// Forward and backward time of every library material (CSV + SVG under benchmarks/results).
+#[derive(clap::Parser)]
+struct Args {
+    /// Output CSV (the SVG goes next to it).
+    #[arg(default_value_os_t = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/materials.csv"))]
+    out: std::path::PathBuf,
+}
+
 fn main() -> anyhow::Result<()> {
-    let out = std::env::args()
-        .nth(1)
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/materials.csv"));
+    let out = <Args as clap::Parser>::parse().out;
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut csv = String::from("material,size,threads,float_params,nodes_forward_ms,forward_ms,backward_ms\n");
     let mut sums = [(0.0, 0.0, 0usize); 2];

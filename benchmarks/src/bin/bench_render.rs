@@ -121,19 +121,32 @@ fn mitsuba(scene: &Scene, w: u32, h: u32, spps: &[u32], reps: usize, dir: &Path)
     Ok(runs)
 }
 
+/// Primal render time against image error, psdr CPU against Mitsuba 3 LLVM (CSV + SVG under benchmarks/results).
+#[derive(clap::Parser)]
+struct Args {
+    /// A 64 spp reference and one repetition.
+    #[arg(long)]
+    quick: bool,
+    /// Timed repetitions per cell (best of; default 3, 1 with --quick).
+    #[arg(long)]
+    reps: Option<u32>,
+    /// Samples per pixel of the reference (default 1024, 64 with --quick).
+    #[arg(long)]
+    ref_spp: Option<u32>,
+    /// Reuse the reference kept in out/bench_render (only valid for an unchanged renderer).
+    #[arg(long)]
+    reuse_reference: bool,
+    /// Skip Mitsuba.
+    #[arg(long)]
+    no_mitsuba: bool,
+}
+
 fn main() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let flag = |name: &str| args.iter().any(|a| a == name);
-    let value = |name: &str, default: u32| -> anyhow::Result<u32> {
-        match args.iter().position(|a| a == name) {
-            Some(i) => Ok(args.get(i + 1).context("missing value")?.parse()?),
-            None => Ok(default),
-        }
-    };
-    let quick = flag("--quick");
-    let reps = value("--reps", if quick { 1 } else { 3 })? as usize;
-    let ref_spp = value("--ref-spp", if quick { 64 } else { 1024 })?;
-    let with_mitsuba = !flag("--no-mitsuba");
+    let args = <Args as clap::Parser>::parse();
+    let quick = args.quick;
+    let reps = args.reps.unwrap_or(if quick { 1 } else { 3 }) as usize;
+    let ref_spp = args.ref_spp.unwrap_or(if quick { 64 } else { 1024 });
+    let with_mitsuba = !args.no_mitsuba;
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
     let scene = load_scene(&root.join("examples/room/scene.json"))?;
     let work = root.join("out/bench_render");
@@ -144,7 +157,7 @@ fn main() -> anyhow::Result<()> {
     let (wr, hr) = SIZES[1];
     // Kept in out/bench_render; `--reuse-reference` skips re-rendering it (only valid for an unchanged renderer).
     let ref_path = work.join(format!("reference_{wr}x{hr}_{ref_spp}spp.exr"));
-    let reference = if flag("--reuse-reference") && ref_path.exists() {
+    let reference = if args.reuse_reference && ref_path.exists() {
         read_exr_rgb(&ref_path)?.2
     } else {
         let (frame, ref_s) = render(&scene, wr, hr, ref_spp, REF_SEED)?;
