@@ -1,4 +1,5 @@
-// The counter-based sampler. Rust twin: psdr/src/render/sampler.rs (pcg4d, Jarzynski & Olano 2020).
+// The counter-based sampler. Rust twin: psdr/src/render/sampler.rs (pcg4d, Jarzynski & Olano 2020; pairs of
+// dimensions are shuffled, Owen-scrambled 2-D Sobol sequences over a pixel's samples, Burley 2020).
 #ifndef PSDR_SAMPLER_GLSL
 #define PSDR_SAMPLER_GLSL
 
@@ -16,21 +17,46 @@ uvec4 pcg4d(uvec4 v) {
     return v;
 }
 
+uint lk_hash(uint x, uint seed) {
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16u) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return x;
+}
+
+uint owen_scramble(uint x, uint seed) {
+    return bitfieldReverse(lk_hash(bitfieldReverse(x), seed));
+}
+
+uint sobol1_reversed(uint i) {
+    i ^= (i & 0xaaaaaaaau) >> 1u;
+    i ^= (i & 0xccccccccu) >> 2u;
+    i ^= (i & 0xf0f0f0f0u) >> 4u;
+    i ^= (i & 0xff00ff00u) >> 8u;
+    i ^= (i & 0xffff0000u) >> 16u;
+    return i;
+}
+
 float sample_1d(uint seed, uint pixel, uint sample_, uint dim) {
-    uvec4 h = pcg4d(uvec4(pixel, sample_, dim, seed));
-    return float(h.x >> 8u) * (1.0 / 16777216.0);
+    uvec4 h = pcg4d(uvec4(pixel, dim >> 1u, seed, 0u));
+    uint index = owen_scramble(sample_, h.x);
+    uint reversed = (dim & 1u) == 0u ? index : sobol1_reversed(index);
+    uint bits = bitfieldReverse(lk_hash(reversed, (dim & 1u) == 0u ? h.y : h.z));
+    return float(bits >> 8u) * (1.0 / 16777216.0);
 }
 
 const uint DIM_PIXEL_X = 0u;
 const uint DIM_PIXEL_Y = 1u;
 const uint DIM_BOUNCE_BASE = 2u;
 const uint DIMS_PER_BOUNCE = 8u;
-const uint DIM_LIGHT_SELECT = 0u;
-const uint DIM_LIGHT_U = 1u;
-const uint DIM_LIGHT_V = 2u;
-const uint DIM_LOBE = 3u;
-const uint DIM_BSDF_U = 4u;
-const uint DIM_BSDF_V = 5u;
+const uint DIM_LIGHT_U = 0u;
+const uint DIM_LIGHT_V = 1u;
+const uint DIM_BSDF_U = 2u;
+const uint DIM_BSDF_V = 3u;
+const uint DIM_LIGHT_SELECT = 4u;
+const uint DIM_LOBE = 5u;
 const uint DIM_ROULETTE = 6u;
 
 struct Sampler {

@@ -71,9 +71,14 @@ fn multi_part_obj_mask_l2_loss_matches_finite_differences() {
     let mut moved = s.clone();
     let t = s.object_index("table").unwrap();
     moved.objects[t].pose.translation.x += 0.04;
+    // A seed no estimator uses, so the target's jitter is independent of theirs.
+    moved.settings.seed = 1000;
     let target = render_cpu(&SceneData::build(&moved).unwrap(), &moved.settings, &|_, _| {}).mask(t);
     let loss = ImageLoss::L2To { output: Output::Mask(t), target };
-    check(&s, "object/table/translation", &loss, 0.01);
+    // The L2 loss of a mask is only piecewise smooth in the pose, so central differences carry an |h|-bias: at
+    // 256 spp, 8 seeds, translation[1]'s FD was 5.11e-3 / 4.28e-3 / 2.71e-3 / 0.82e-3 at h = 0.0025 / 0.005 /
+    // 0.01 / 0.02 against AD 5.10e-3. Hence the small step.
+    check(&s, "object/table/translation", &loss, 0.0025);
     check(&s, "object/table/yaw", &ImageLoss::Mean(Output::Depth), 0.01);
 }
 

@@ -129,8 +129,16 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path) -> Result<PathBuf> {
     writeln!(x, "  <integrator type=\"path\">\n    <integer name=\"max_depth\" value=\"{}\"/>\n    <integer name=\"rr_depth\" value=\"{}\"/>\n  </integrator>", s.max_depth, s.rr_depth).unwrap();
     writeln!(
         x,
-        "  <sensor type=\"perspective\">\n    <string name=\"fov_axis\" value=\"y\"/>\n    <float name=\"fov\" value=\"{}\"/>\n    <transform name=\"to_world\">\n      <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n    </transform>\n    <sampler type=\"independent\">\n      <integer name=\"sample_count\" value=\"{}\"/>\n      <integer name=\"seed\" value=\"{}\"/>\n    </sampler>\n    <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      <integer name=\"height\" value=\"{}\"/>\n      <string name=\"pixel_format\" value=\"rgb\"/>\n      <rfilter type=\"box\"/>\n    </film>\n  </sensor>",
-        c.fov_y_deg, rgb(c.origin), rgb(target), rgb(c.up), s.spp, s.seed, c.width, c.height
+        "  <sensor type=\"perspective\">\n    <string name=\"fov_axis\" value=\"y\"/>\n    <float name=\"fov\" value=\"{}\"/>\n    <transform name=\"to_world\">\n      <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n    </transform>\n    <sampler type=\"{}\">\n      <integer name=\"sample_count\" value=\"{}\"/>\n      <integer name=\"seed\" value=\"{}\"/>\n    </sampler>\n    <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      <integer name=\"height\" value=\"{}\"/>\n      <string name=\"pixel_format\" value=\"rgb\"/>\n      <rfilter type=\"box\"/>\n    </film>\n  </sensor>",
+        c.fov_y_deg,
+        rgb(c.origin),
+        rgb(target),
+        rgb(c.up),
+        mitsuba_sampler(s.spp),
+        s.spp,
+        s.seed,
+        c.width,
+        c.height
     )
     .unwrap();
     for (mi, m) in scene.materials.iter().enumerate() {
@@ -252,6 +260,17 @@ fn material_xml(scene: &Scene, mi: usize, m: &Material, dir: &Path, warnings: &m
         inner = format!("    <bsdf type=\"normalmap\">\n      <texture type=\"bitmap\" name=\"normalmap\">\n        <string name=\"filename\" value=\"{file}\"/>\n        <boolean name=\"raw\" value=\"true\"/>\n      </texture>\n{}    </bsdf>\n", inner.replace("\n    ", "\n      ").replacen("    <bsdf", "      <bsdf", 1));
     }
     Ok(format!("  <bsdf type=\"twosided\" id=\"mat{mi}\">\n{inner}  </bsdf>\n"))
+}
+
+/// Mitsuba's closest sampler to psdr's (scrambled, shuffled (0, 2)-sequences per pair of dimensions):
+/// `ldsampler`, which is the same construction but wants a power-of-two sample count; otherwise `multijitter`
+/// (stratified too, any count). Noise then matches in kind, not only in expectation.
+fn mitsuba_sampler(spp: u32) -> &'static str {
+    if spp.is_power_of_two() {
+        "ldsampler"
+    } else {
+        "multijitter"
+    }
 }
 
 #[cfg(test)]
