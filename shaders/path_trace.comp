@@ -46,7 +46,8 @@ bool unoccluded(vec3 p, vec3 ng, vec3 q, vec3 nq) {
 PathSample trace_path(uint px, uint py, uint sample_) {
     CameraGpu cam = camera[0];
     Sampler s = Sampler(fp.seed, py * cam.width + px, sample_);
-    vec3 dir = camera_ray(cam, float(px) + sampler_get(s, DIM_PIXEL_X), float(py) + sampler_get(s, DIM_PIXEL_Y));
+    vec2 jitter = sampler_get2(s, DIM_PIXEL_X);
+    vec3 dir = camera_ray(cam, float(px) + jitter.x, float(py) + jitter.y);
     vec3 origin = cam.origin;
     PathSample out_ = PathSample(vec3(0.0), 0.0, vec3(0.0), vec3(0.0), NONE, 0u);
     vec3 beta = vec3(1.0);
@@ -80,13 +81,11 @@ PathSample trace_path(uint px, uint py, uint sample_) {
         }
         vec3 wi = to_local(sp, -dir);
         BsdfAt bsdf = bsdf_at(sp.bsdf, wi);
+        vec2 u_select_lobe = sampler_bounce2(s, depth, DIM_LIGHT_SELECT);
         // Next-event estimation: one point on one light.
         if (fp.light_count > 0u) {
-            LightSample ls = sample_light(
-                fp.light_count,
-                sampler_bounce(s, depth, DIM_LIGHT_SELECT),
-                sampler_bounce(s, depth, DIM_LIGHT_U),
-                sampler_bounce(s, depth, DIM_LIGHT_V));
+            vec2 u = sampler_bounce2(s, depth, DIM_LIGHT_U);
+            LightSample ls = sample_light(fp.light_count, u_select_lobe.x, u.x, u.y);
             vec3 to_light = ls.p - sp.p;
             float dist2 = dot3(to_light, to_light);
             float dist = sqrt(dist2);
@@ -106,9 +105,9 @@ PathSample trace_path(uint px, uint py, uint sample_) {
             }
         }
         // Continue the path by sampling the BSDF.
+        vec2 b = sampler_bounce2(s, depth, DIM_BSDF_U);
         BsdfSample bs;
-        if (!bsdf_sample_at(bsdf, sampler_bounce(s, depth, DIM_LOBE), sampler_bounce(s, depth, DIM_BSDF_U),
-                            sampler_bounce(s, depth, DIM_BSDF_V), bs)) {
+        if (!bsdf_sample_at(bsdf, u_select_lobe.y, b.x, b.y, bs)) {
             break;
         }
         beta *= bs.weight;

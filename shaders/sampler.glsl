@@ -47,6 +47,14 @@ float sample_1d(uint seed, uint pixel, uint sample_, uint dim) {
     return float(bits >> 8u) * (1.0 / 16777216.0);
 }
 
+vec2 sample_2d(uint seed, uint pixel, uint sample_, uint dim) {
+    uvec4 h = pcg4d(uvec4(pixel, dim >> 1u, seed, 0u));
+    uint index = owen_scramble(sample_, h.x);
+    uint x = bitfieldReverse(lk_hash(index, h.y));
+    uint y = bitfieldReverse(lk_hash(sobol1_reversed(index), h.z));
+    return vec2(float(x >> 8u), float(y >> 8u)) * (1.0 / 16777216.0);
+}
+
 const uint DIM_PIXEL_X = 0u;
 const uint DIM_PIXEL_Y = 1u;
 const uint DIM_BOUNCE_BASE = 2u;
@@ -69,8 +77,16 @@ float sampler_get(Sampler s, uint dim) {
     return sample_1d(s.seed, s.pixel, s.sample_, dim);
 }
 
+vec2 sampler_get2(Sampler s, uint dim) {
+    return sample_2d(s.seed, s.pixel, s.sample_, dim);
+}
+
 float sampler_bounce(Sampler s, uint bounce, uint which) {
     return sampler_get(s, DIM_BOUNCE_BASE + bounce * DIMS_PER_BOUNCE + which);
+}
+
+vec2 sampler_bounce2(Sampler s, uint bounce, uint which) {
+    return sampler_get2(s, DIM_BOUNCE_BASE + bounce * DIMS_PER_BOUNCE + which);
 }
 
 #endif

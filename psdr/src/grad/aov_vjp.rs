@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::render::bvh::trace_closest;
 use crate::render::camera::camera_ray;
 use crate::render::layout::NONE;
-use crate::render::sampler::{Sampler, DIM_PIXEL_X, DIM_PIXEL_Y};
+use crate::render::sampler::{Sampler, DIM_PIXEL_X};
 use crate::render::SceneData;
 use crate::scene::{RenderSettings, Scene};
 use glam::Vec3;
@@ -70,7 +70,8 @@ fn depth_interior(d: &SceneData, settings: &RenderSettings, pose: &PoseLayout, a
                 }
                 for sample in 0..settings.spp {
                     let s = Sampler { seed: settings.seed, pixel: py * w + px, sample };
-                    let dir = camera_ray(&d.camera, px as f32 + s.get(DIM_PIXEL_X), py as f32 + s.get(DIM_PIXEL_Y));
+                    let (jx, jy) = s.get2(DIM_PIXEL_X);
+                    let dir = camera_ray(&d.camera, px as f32 + jx, py as f32 + jy);
                     let Some(hit) = trace_closest(&d.nodes, &d.triangles, origin, dir, f32::INFINITY) else {
                         continue;
                     };

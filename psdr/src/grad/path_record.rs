@@ -93,7 +93,8 @@ impl PathRecord {
 pub fn record_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32, rec: &mut PathRecord) {
     let cam = &d.camera;
     let s = Sampler { seed: fp.seed, pixel: py * cam.width + px, sample };
-    let dir = camera_ray(cam, px as f32 + s.get(DIM_PIXEL_X), py as f32 + s.get(DIM_PIXEL_Y));
+    let (jx, jy) = s.get2(DIM_PIXEL_X);
+    let dir = camera_ray(cam, px as f32 + jx, py as f32 + jy);
     record_from(d, fp, &s, Vec3::from(cam.origin), dir, rec);
 }
 
@@ -141,9 +142,9 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
         }
         let wi = sp.to_local(-dir);
         v.wi_local = wi;
+        let (u_sel, u_lobe) = s.bounce2(depth, DIM_LIGHT_SELECT);
         if fp.light_count > 0 {
-            let (u_sel, u1, u2) =
-                (s.bounce(depth, DIM_LIGHT_SELECT), s.bounce(depth, DIM_LIGHT_U), s.bounce(depth, DIM_LIGHT_V));
+            let (u1, u2) = s.bounce2(depth, DIM_LIGHT_U);
             let ls = sample_light(d, fp.light_count, u_sel, u1, u2);
             let to_light = ls.p - sp.p;
             let dist2 = to_light.dot(to_light);
@@ -169,13 +170,8 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
                 }
             }
         }
-        let Some(bs) = bsdf_sample(
-            &sp.bsdf,
-            wi,
-            s.bounce(depth, DIM_LOBE),
-            s.bounce(depth, DIM_BSDF_U),
-            s.bounce(depth, DIM_BSDF_V),
-        ) else {
+        let (b1, b2) = s.bounce2(depth, DIM_BSDF_U);
+        let Some(bs) = bsdf_sample(&sp.bsdf, wi, u_lobe, b1, b2) else {
             rec.vertices.push(v);
             break;
         };

@@ -28,7 +28,8 @@ pub struct PathSample {
 pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32) -> PathSample {
     let cam = &d.camera;
     let s = Sampler { seed: fp.seed, pixel: py * cam.width + px, sample };
-    let mut dir = camera_ray(cam, px as f32 + s.get(DIM_PIXEL_X), py as f32 + s.get(DIM_PIXEL_Y));
+    let (jx, jy) = s.get2(DIM_PIXEL_X);
+    let mut dir = camera_ray(cam, px as f32 + jx, py as f32 + jy);
     let mut origin = Vec3::from(cam.origin);
     let mut out =
         PathSample { radiance: Vec3::ZERO, depth: 0.0, normal: Vec3::ZERO, albedo: Vec3::ZERO, object: NONE, rays: 0 };
@@ -62,15 +63,11 @@ pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32
         }
         let wi = sp.to_local(-dir);
         let bsdf = bsdf_at(&sp.bsdf, wi);
+        let (u_select, u_lobe) = s.bounce2(depth, DIM_LIGHT_SELECT);
         // Next-event estimation: one point on one light.
         if fp.light_count > 0 {
-            let ls = sample_light(
-                d,
-                fp.light_count,
-                s.bounce(depth, DIM_LIGHT_SELECT),
-                s.bounce(depth, DIM_LIGHT_U),
-                s.bounce(depth, DIM_LIGHT_V),
-            );
+            let (u1, u2) = s.bounce2(depth, DIM_LIGHT_U);
+            let ls = sample_light(d, fp.light_count, u_select, u1, u2);
             let to_light = ls.p - sp.p;
             let dist2 = to_light.dot(to_light);
             let dist = dist2.sqrt();
@@ -89,9 +86,8 @@ pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32
             }
         }
         // Continue the path by sampling the BSDF.
-        let Some(bs) =
-            bsdf_sample_at(&bsdf, s.bounce(depth, DIM_LOBE), s.bounce(depth, DIM_BSDF_U), s.bounce(depth, DIM_BSDF_V))
-        else {
+        let (b1, b2) = s.bounce2(depth, DIM_BSDF_U);
+        let Some(bs) = bsdf_sample_at(&bsdf, u_lobe, b1, b2) else {
             break;
         };
         beta *= bs.weight;

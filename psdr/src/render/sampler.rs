@@ -67,7 +67,23 @@ pub fn sample_1d(seed: u32, pixel: u32, sample: u32, dim: u32) -> f32 {
     let index = owen_scramble(sample, h[0]);
     // Sobol dimension 0 is the bit-reversed index; scrambling (reverse, hash, reverse) cancels one reversal.
     let reversed = if dim & 1 == 0 { index } else { sobol1_reversed(index) };
-    let bits = lk_hash(reversed, h[1 + (dim & 1) as usize]).reverse_bits();
+    to_unit(lk_hash(reversed, h[1 + (dim & 1) as usize]).reverse_bits())
+}
+
+/// Both coordinates of the pair (dim, dim + 1), dim even: equal to two `sample_1d` calls, with one hash and one
+/// shuffle instead of two.
+#[inline(always)]
+pub fn sample_2d(seed: u32, pixel: u32, sample: u32, dim: u32) -> (f32, f32) {
+    let h = pcg4d([pixel, dim >> 1, seed, 0]);
+    let index = owen_scramble(sample, h[0]);
+    let x = lk_hash(index, h[1]).reverse_bits();
+    let y = lk_hash(sobol1_reversed(index), h[2]).reverse_bits();
+    (to_unit(x), to_unit(y))
+}
+
+/// The top 24 bits as a float in [0, 1), exactly.
+#[inline(always)]
+fn to_unit(bits: u32) -> f32 {
     (bits >> 8) as f32 * (1.0 / 16777216.0)
 }
 
@@ -83,6 +99,7 @@ pub const DIM_LIGHT_U: u32 = 0;
 pub const DIM_LIGHT_V: u32 = 1;
 pub const DIM_BSDF_U: u32 = 2;
 pub const DIM_BSDF_V: u32 = 3;
+/// Drawn together with DIM_LOBE as one pair.
 pub const DIM_LIGHT_SELECT: u32 = 4;
 pub const DIM_LOBE: u32 = 5;
 pub const DIM_ROULETTE: u32 = 6;
@@ -100,9 +117,18 @@ impl Sampler {
     pub fn get(&self, dim: u32) -> f32 {
         sample_1d(self.seed, self.pixel, self.sample, dim)
     }
+    /// The pair (dim, dim + 1); dim must be even.
+    #[inline(always)]
+    pub fn get2(&self, dim: u32) -> (f32, f32) {
+        sample_2d(self.seed, self.pixel, self.sample, dim)
+    }
     #[inline(always)]
     pub fn bounce(&self, bounce: u32, which: u32) -> f32 {
         self.get(DIM_BOUNCE_BASE + bounce * DIMS_PER_BOUNCE + which)
+    }
+    #[inline(always)]
+    pub fn bounce2(&self, bounce: u32, which: u32) -> (f32, f32) {
+        self.get2(DIM_BOUNCE_BASE + bounce * DIMS_PER_BOUNCE + which)
     }
 }
 
@@ -240,6 +266,15 @@ mod tests {
             let stat = chi2(&counts, n as f64 / 1024.0);
             eprintln!("dims ({da}, {db}): chi2 {stat:.1} (1023 dof)");
             assert!(stat < chi2_limit(1023.0), "dims ({da}, {db}): chi2 {stat:.1} >= {:.1}", chi2_limit(1023.0));
+        }
+    }
+
+    #[test]
+    fn pair_draw_equals_two_single_draws() {
+        for i in 0..10_000u32 {
+            let (seed, pixel, sample, dim) = (i % 7, i.wrapping_mul(2654435761), i / 3, 2 * (i % 13));
+            let (x, y) = sample_2d(seed, pixel, sample, dim);
+            assert_eq!((x, y), (sample_1d(seed, pixel, sample, dim), sample_1d(seed, pixel, sample, dim + 1)));
         }
     }
 
