@@ -8,12 +8,20 @@ const uint SHADING_HAS_NORMALS = 1u;
 const uint SHADING_HAS_UVS = 2u;
 #define INFINITY uintBitsToFloat(0x7f800000u)
 
-// obvhs Bvh2Node with feature small_bvh2_node (32 bytes).
+// obvhs CwBvhNode (80 bytes): grid origin; e[0..3] in bytes 0-2 and imask in byte 3 of e_imask; [u8; 8]
+// fields as two little-endian words (byte i in word i / 4, bits 8 * (i % 4)).
 struct BvhNode {
-    vec3 min_;
-    uint prim_count;
-    vec3 max_;
-    uint first_index;
+    vec3 p;
+    uint e_imask;
+    uint child_base_idx;
+    uint primitive_base_idx;
+    uvec2 child_meta;
+    uvec2 child_min_x;
+    uvec2 child_max_x;
+    uvec2 child_min_y;
+    uvec2 child_max_y;
+    uvec2 child_min_z;
+    uvec2 child_max_z;
 };
 
 struct TriangleGeom {

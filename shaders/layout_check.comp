@@ -28,7 +28,10 @@ void put(vec4 v) { put(v.x); put(v.y); put(v.z); put(v.w); }
 void main() {
     // Element 1 of each array, so the array stride is checked too.
     BvhNode b = nodes[1];
-    put(b.min_); put(b.prim_count); put(b.max_); put(b.first_index);
+    put(b.p); put(b.e_imask); put(b.child_base_idx); put(b.primitive_base_idx); put(b.child_meta.x); put(b.child_meta.y);
+    put(b.child_min_x.x); put(b.child_min_x.y); put(b.child_max_x.x); put(b.child_max_x.y);
+    put(b.child_min_y.x); put(b.child_min_y.y); put(b.child_max_y.x); put(b.child_max_y.y);
+    put(b.child_min_z.x); put(b.child_min_z.y); put(b.child_max_z.x); put(b.child_max_z.y);
     TriangleGeom t = triangles[1];
     put(t.v0); put(t.material); put(t.e1); put(t.object); put(t.e2); put(t.light);
     TriangleShading s = shading[1];

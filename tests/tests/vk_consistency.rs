@@ -261,10 +261,26 @@ fn shared_struct_layouts_round_trip_through_a_kernel() {
         k as f32 + 0.25
     };
     let mut node: BvhNode = bytemuck::Zeroable::zeroed();
-    node.min = glam::Vec3::new(f(), f(), f());
-    node.prim_count = 7;
-    node.max = glam::Vec3::new(f(), f(), f());
-    node.first_index = 11;
+    node.p = glam::Vec3::new(f(), f(), f());
+    node.e = [101, 102, 103];
+    node.imask = 104;
+    node.child_base_idx = 7;
+    node.primitive_base_idx = 11;
+    // Distinct bytes in every [u8; 8] field, so a swapped word or byte order shows.
+    for (k, field) in [
+        &mut node.child_meta,
+        &mut node.child_min_x,
+        &mut node.child_max_x,
+        &mut node.child_min_y,
+        &mut node.child_max_y,
+        &mut node.child_min_z,
+        &mut node.child_max_z,
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        *field = std::array::from_fn(|i| (k * 8 + i + 1) as u8);
+    }
     let tri = TriangleGeom {
         v0: [f(), f(), f()],
         material: 3,

@@ -4,8 +4,8 @@
 //! `secondary_edges` would keep is visited, so the edge distribution built from the visited ones is the same.
 
 use super::mesh_edges::MeshEdge;
-use crate::render::layout::BvhNode;
 use glam::Vec3;
+use obvhs::bvh2::node::Bvh2Node as BvhNode;
 use obvhs::{aabb::Aabb, bvh2::builder::build_bvh2, BvhBuildParams};
 use std::time::Duration;
 

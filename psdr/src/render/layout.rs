@@ -7,10 +7,11 @@ use bytemuck::{Pod, Zeroable};
 /// Marks "no index" in u32 fields (no light, no texture, no object).
 pub const NONE: u32 = u32::MAX;
 
-/// A BVH node: obvhs `Bvh2Node` with feature `small_bvh2_node` (32 bytes).
-/// Leaf: `prim_count > 0`, triangles `first_index .. first_index + prim_count`.
-/// Inner: children at `first_index` and `first_index + 1`.
-pub type BvhNode = obvhs::bvh2::node::Bvh2Node;
+/// A BVH node: obvhs `CwBvhNode`, a compressed 8-wide node (Ylitie et al. 2017; 80 bytes): the node's grid
+/// origin `p` and power-of-two scales `e`, which slots hold inner children (`imask`), the index of the first
+/// child node and first triangle, per-slot meta bytes (inner: 24 + slot; leaf: unary triangle count in bits
+/// 5-7, offset from the first triangle in bits 0-4) and the child boxes as 8-bit grid coordinates.
+pub type BvhNode = obvhs::cwbvh::node::CwBvhNode;
 
 /// Triangle data needed for intersection, in world space (48 bytes).
 #[repr(C)]
@@ -129,7 +130,7 @@ mod tests {
 
     #[test]
     fn sizes_are_multiples_of_16_for_std430_arrays() {
-        assert_eq!(std::mem::size_of::<BvhNode>(), 32);
+        assert_eq!(std::mem::size_of::<BvhNode>(), 80);
         assert_eq!(std::mem::size_of::<TriangleGeom>(), 48);
         assert_eq!(std::mem::size_of::<TriangleShading>(), 80);
         assert_eq!(std::mem::size_of::<MaterialGpu>(), 80);

@@ -6,7 +6,7 @@ use super::layout::*;
 use crate::error::{Error, Result};
 use crate::scene::{Color, Scalar, Scene};
 use glam::Vec3;
-use obvhs::{aabb::Aabb, bvh2::builder::build_bvh2, BvhBuildParams};
+use obvhs::{aabb::Aabb, cwbvh::builder::build_cwbvh, BvhBuildParams};
 use std::time::Duration;
 
 #[derive(Clone, Debug, Default)]
@@ -27,8 +27,9 @@ pub struct SceneData {
     pub light_weight: f32,
 }
 
-/// Longest traversal stack the kernels allow (GLSL twin: BVH_STACK_SIZE in shaders/bvh.glsl).
-pub const BVH_STACK_SIZE: usize = 64;
+/// Longest traversal stack (in node groups) the kernels allow (GLSL twin: BVH_STACK_SIZE in shaders/bvh.glsl).
+/// Traversal pushes at most one group per level, and an 8-wide tree over millions of triangles is ~10 deep.
+pub const BVH_STACK_SIZE: usize = 32;
 
 pub fn luminance(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
@@ -104,15 +105,17 @@ impl SceneData {
             })
             .collect();
         if !aabbs.is_empty() {
-            let bvh = build_bvh2(&aabbs, bvh_build_params(), &mut Duration::default());
+            let bvh = build_cwbvh(&aabbs, bvh_build_params(), &mut Duration::default());
             let depth = tree_depth(&bvh.nodes);
-            if depth + 2 > BVH_STACK_SIZE {
+            if depth > BVH_STACK_SIZE {
                 return Err(Error::Invalid(format!(
                     "scene: BVH depth {depth} exceeds the traversal stack ({BVH_STACK_SIZE})"
                 )));
             }
-            // Reorder triangles so leaves index them directly (no indirection in the kernels).
+            // Reorder triangles so leaves index them directly (no indirection in the kernels). Without spatial
+            // splits every triangle sits in exactly one leaf: the order is a permutation.
             let order = &bvh.primitive_indices;
+            debug_assert_eq!(order.len(), tris.len());
             d.triangles = order.iter().map(|&i| tris[i as usize]).collect();
             d.shading = order.iter().map(|&i| shading[i as usize]).collect();
             d.triangle_source = order.clone();
@@ -145,8 +148,8 @@ impl SceneData {
         }
         // Never hand an empty buffer to Vulkan.
         if d.nodes.is_empty() {
-            // A leaf holding one degenerate triangle: traversal works unchanged and never reports a hit.
-            d.nodes.push(BvhNode { min: Vec3::ZERO, max: Vec3::ZERO, prim_count: 1, first_index: 0 });
+            // A root with eight empty slots: traversal works unchanged and never reports a hit.
+            d.nodes.push(BvhNode::default());
         }
         for v in [&mut d.triangles] {
             if v.is_empty() {
@@ -230,26 +233,22 @@ fn material(m: &crate::scene::Material) -> MaterialGpu {
     }
 }
 
-/// obvhs's medium build (PLOC + reinsertion) with leaves collapsed only where that is cheaper at a traversal
-/// cost of 1 (one box pair per triangle) instead of medium's 3: our box-pair test (SSE on the CPU) is about as
-/// costly as one Moller-Trumbore test, so medium's 8-triangle leaves made traversal test ~4x more triangles than
-/// needed. Measured on the example room (callgrind, 64x48 at 16 spp): triangle tests per closest-hit ray 9.3 -> 2.3,
-/// node visits 6.0 -> 9.0, whole render -13 % instructions. Both backends trace this same tree.
+/// obvhs's medium build: PLOC + reinsertion for the binary tree, converted to the 8-wide compressed tree with
+/// at most 3 triangles per leaf (the encoding's limit) by the cost-optimal collapse of Ylitie et al.
+/// Both backends trace this same tree.
 pub fn bvh_build_params() -> BvhBuildParams {
-    BvhBuildParams { collapse_traversal_cost: 1.0, ..BvhBuildParams::medium_build() }
+    BvhBuildParams::medium_build()
 }
 
-/// Depth of the tree (root = 1); traversal pushes at most one sibling per level, so the stack needs `depth`.
-fn tree_depth(nodes: &[obvhs::bvh2::node::Bvh2Node]) -> usize {
+/// Depth of the tree (root = 1); traversal pushes at most one group per level, so the stack needs `depth`.
+fn tree_depth(nodes: &[BvhNode]) -> usize {
     let mut deepest = 0;
     let mut stack = vec![(0usize, 1usize)];
     while let Some((i, depth)) = stack.pop() {
         deepest = deepest.max(depth);
         let n = &nodes[i];
-        if n.prim_count == 0 {
-            let first = n.first_index as usize;
-            stack.push((first, depth + 1));
-            stack.push((first + 1, depth + 1));
+        for k in 0..n.imask.count_ones() as usize {
+            stack.push((n.child_base_idx as usize + k, depth + 1));
         }
     }
     deepest
