@@ -98,6 +98,12 @@ SurfacePoint surface_point(uint ti, float u, float v, vec3 dir) {
     bool has_uvs = (sh.flags & SHADING_HAS_UVS) != 0u;
     vec2 uv = has_uvs ? uv0 * w + uv1 * u + uv2 * v : vec2(u, v);
     vec2 uvt = apply_uv_transform(mat, uv);
+    // The material's lookups first: they depend only on uv (the Rust twin issues them together so that their
+    // cache misses overlap).
+    vec3 albedo = mat.albedo_tex != NONE ? texture_sample_rgb(textures[mat.albedo_tex], uvt) : mat.albedo;
+    float roughness = mat.roughness_tex != NONE ? texture_sample(textures[mat.roughness_tex], uvt, 0u) : mat.roughness;
+    float specular = mat.specular_tex != NONE ? texture_sample(textures[mat.specular_tex], uvt, 0u) : mat.specular;
+    vec3 normal_texel = mat.normal_tex != NONE ? texture_sample_rgb(textures[mat.normal_tex], uvt) : vec3(0.0);
     // Tangent along dp/du' of the transformed uv, so normal maps follow texture rotation.
     vec2 duv1 = apply_uv_transform(mat, uv1) - apply_uv_transform(mat, uv0);
     vec2 duv2 = apply_uv_transform(mat, uv2) - apply_uv_transform(mat, uv0);
@@ -120,8 +126,7 @@ SurfacePoint surface_point(uint ti, float u, float v, vec3 dir) {
     }
     bool bent = (sh.flags & SHADING_HAS_NORMALS) != 0u;
     if (mat.normal_tex != NONE) {
-        TextureGpu t = textures[mat.normal_tex];
-        vec3 m = texture_sample_rgb(t, uvt) * 2.0 - vec3(1.0);
+        vec3 m = normal_texel * 2.0 - vec3(1.0);
         vec3 n = tangent * m.x + bitangent * m.y + ns * m.z;
         float len = length3(n);
         if (len > 0.0 && dot3(n, ng) > 0.0) {
@@ -139,9 +144,6 @@ SurfacePoint surface_point(uint ti, float u, float v, vec3 dir) {
         ns = normalize3(ns - dir * (TERMINATOR_COS - c));
         reframe(ns, tangent, bitangent);
     }
-    vec3 albedo = mat.albedo_tex != NONE ? texture_sample_rgb(textures[mat.albedo_tex], uvt) : mat.albedo;
-    float roughness = mat.roughness_tex != NONE ? texture_sample(textures[mat.roughness_tex], uvt, 0u) : mat.roughness;
-    float specular = mat.specular_tex != NONE ? texture_sample(textures[mat.specular_tex], uvt, 0u) : mat.specular;
     BsdfParams bsdf = BsdfParams(
         vmin3(vmax3(albedo, vec3(0.0)), vec3(1.0)),
         clamp(roughness, 0.0, 1.0),

@@ -115,6 +115,28 @@ pub fn surface_point(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> Surfa
     let uv2 = Vec2::from(sh.uv2);
     let uv = if sh.flags & SHADING_HAS_UVS != 0 { uv0 * w + uv1 * u + uv2 * v } else { Vec2::new(u, v) };
     let uvt = apply_uv_transform(mat, uv);
+    // The material's lookups first: they depend only on uv, and issued together their cache misses overlap
+    // (the textures of a room rarely fit in L2) instead of each waiting behind the tangent-frame arithmetic.
+    let albedo = if mat.albedo_tex != NONE {
+        texture_sample_rgb(&d.texels, &d.textures[mat.albedo_tex as usize], uvt)
+    } else {
+        Vec3::from(mat.albedo)
+    };
+    let roughness = if mat.roughness_tex != NONE {
+        texture_sample(&d.texels, &d.textures[mat.roughness_tex as usize], uvt, 0)
+    } else {
+        mat.roughness
+    };
+    let specular = if mat.specular_tex != NONE {
+        texture_sample(&d.texels, &d.textures[mat.specular_tex as usize], uvt, 0)
+    } else {
+        mat.specular
+    };
+    let normal_texel = if mat.normal_tex != NONE {
+        texture_sample_rgb(&d.texels, &d.textures[mat.normal_tex as usize], uvt)
+    } else {
+        Vec3::ZERO
+    };
     // Tangent along dp/du' of the transformed uv, so normal maps follow texture rotation.
     let duv1 = apply_uv_transform(mat, uv1) - apply_uv_transform(mat, uv0);
     let duv2 = apply_uv_transform(mat, uv2) - apply_uv_transform(mat, uv0);
@@ -136,8 +158,7 @@ pub fn surface_point(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> Surfa
     }
     let mut bent = sh.flags & SHADING_HAS_NORMALS != 0;
     if mat.normal_tex != NONE {
-        let t = &d.textures[mat.normal_tex as usize];
-        let m = texture_sample_rgb(&d.texels, t, uvt) * 2.0 - Vec3::ONE;
+        let m = normal_texel * 2.0 - Vec3::ONE;
         let n = tangent * m.x + bitangent * m.y + ns * m.z;
         let len = n.length();
         if len > 0.0 && n.dot(ng) > 0.0 {
@@ -155,21 +176,6 @@ pub fn surface_point(d: &SceneData, ti: u32, u: f32, v: f32, dir: Vec3) -> Surfa
         ns = (ns - dir * (TERMINATOR_COS - c)).normalize();
         (tangent, bitangent) = reframe(ns, tangent, bitangent);
     }
-    let albedo = if mat.albedo_tex != NONE {
-        texture_sample_rgb(&d.texels, &d.textures[mat.albedo_tex as usize], uvt)
-    } else {
-        Vec3::from(mat.albedo)
-    };
-    let roughness = if mat.roughness_tex != NONE {
-        texture_sample(&d.texels, &d.textures[mat.roughness_tex as usize], uvt, 0)
-    } else {
-        mat.roughness
-    };
-    let specular = if mat.specular_tex != NONE {
-        texture_sample(&d.texels, &d.textures[mat.specular_tex as usize], uvt, 0)
-    } else {
-        mat.specular
-    };
     SurfacePoint {
         p,
         ng,
