@@ -6,6 +6,7 @@
 const uint NONE = 0xffffffffu;
 const uint SHADING_HAS_NORMALS = 1u;
 const uint SHADING_HAS_UVS = 2u;
+const uint SHADING_HAS_TANGENT = 4u;
 #define INFINITY uintBitsToFloat(0x7f800000u)
 
 // obvhs CwBvhNode (80 bytes): grid origin; e[0..3] in bytes 0-2 and imask in byte 3 of e_imask; [u8; 8]
@@ -44,6 +45,12 @@ struct TriangleShading {
     vec2 uv1;
     vec2 uv2;
     uvec2 _pad1;
+    vec3 ng;
+    uint _pad2;
+    vec3 dpdu;
+    uint _pad3;
+    vec3 dpdv;
+    uint _pad4;
 };
 
 struct MaterialGpu {

@@ -36,7 +36,7 @@ void main() {
     put(t.v0); put(t.material); put(t.e1); put(t.object); put(t.e2); put(t.light);
     TriangleShading s = shading[1];
     put(s.n0); put(s.flags); put(s.n1); put(s.emitter); put(s.n2); put(s._pad0); put(s.uv0); put(s.uv1); put(s.uv2);
-    put(s._pad1.x); put(s._pad1.y);
+    put(s._pad1.x); put(s._pad1.y); put(s.ng); put(s._pad2); put(s.dpdu); put(s._pad3); put(s.dpdv); put(s._pad4);
     MaterialGpu m = materials[1];
     put(m.albedo); put(m.albedo_tex); put(m.roughness); put(m.roughness_tex); put(m.specular); put(m.specular_tex);
     put(m.normal_tex); put(m._pad0); put(m._pad1); put(m._pad2); put(m.uv_row0); put(m.uv_row1);

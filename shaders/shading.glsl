@@ -60,9 +60,8 @@ void reframe(vec3 ns, inout vec3 tangent, inout vec3 bitangent) {
 // The geometric normal and the interpolated shading normal (before normal mapping) at barycentrics (u, v) of
 // triangle ti, both flipped to the side dir arrives from, and whether that side is the front.
 void facing_normals(uint ti, float u, float v, vec3 dir, out vec3 ng, out vec3 ns, out bool front) {
-    TriangleGeom tri = triangles[ti];
     TriangleShading sh = shading[ti];
-    ng = normalize3(cross3(tri.e1, tri.e2));
+    ng = sh.ng;
     float w = 1.0 - u - v;
     if ((sh.flags & SHADING_HAS_NORMALS) != 0u) {
         vec3 n = sh.n0 * w + sh.n1 * u + sh.n2 * v;
@@ -98,19 +97,17 @@ SurfacePoint surface_point(uint ti, float u, float v, vec3 dir) {
     bool has_uvs = (sh.flags & SHADING_HAS_UVS) != 0u;
     vec2 uv = has_uvs ? uv0 * w + uv1 * u + uv2 * v : vec2(u, v);
     vec2 uvt = apply_uv_transform(mat, uv);
-    // The material's lookups first: they depend only on uv (the Rust twin issues them together so that their
-    // cache misses overlap).
+    // The material's lookups first: they depend only on uv, so issued here their loads overlap the frame
+    // arithmetic below instead of waiting behind it.
     vec3 albedo = mat.albedo_tex != NONE ? texture_sample_rgb(textures[mat.albedo_tex], uvt) : mat.albedo;
     float roughness = mat.roughness_tex != NONE ? texture_sample(textures[mat.roughness_tex], uvt, 0u) : mat.roughness;
     float specular = mat.specular_tex != NONE ? texture_sample(textures[mat.specular_tex], uvt, 0u) : mat.specular;
     vec3 normal_texel = mat.normal_tex != NONE ? texture_sample_rgb(textures[mat.normal_tex], uvt) : vec3(0.0);
     // Tangent along dp/du' of the transformed uv, so normal maps follow texture rotation.
-    vec2 duv1 = apply_uv_transform(mat, uv1) - apply_uv_transform(mat, uv0);
-    vec2 duv2 = apply_uv_transform(mat, uv2) - apply_uv_transform(mat, uv0);
-    float det = duv1.x * duv2.y - duv1.y * duv2.x;
+    bool has_tangent = (sh.flags & SHADING_HAS_TANGENT) != 0u;
     vec3 tangent;
-    if (det != 0.0 && has_uvs) {
-        tangent = (e1 * duv2.y - e2 * duv1.y) * (1.0 / det);
+    if (has_tangent) {
+        tangent = sh.dpdu;
     } else {
         tangent = orthogonal(ns);
     }
@@ -118,11 +115,8 @@ SurfacePoint surface_point(uint ti, float u, float v, vec3 dir) {
     float tl = length3(tangent);
     tangent = tl > 1e-12 ? tangent / tl : orthogonal(ns);
     vec3 bitangent = cross3(ns, tangent);
-    if (det != 0.0 && has_uvs) {
-        vec3 dpdv = (e2 * duv1.x - e1 * duv2.x) * (1.0 / det);
-        if (dot3(bitangent, dpdv) < 0.0) {
-            bitangent = -bitangent;
-        }
+    if (has_tangent && dot3(bitangent, sh.dpdv) < 0.0) {
+        bitangent = -bitangent;
     }
     bool bent = (sh.flags & SHADING_HAS_NORMALS) != 0u;
     if (mat.normal_tex != NONE) {

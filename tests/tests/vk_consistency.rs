@@ -300,6 +300,12 @@ fn shared_struct_layouts_round_trip_through_a_kernel() {
         uv1: [f(), f()],
         uv2: [f(), f()],
         _pad1: [10, 12],
+        ng: [f(), f(), f()],
+        _pad2: 41,
+        dpdu: [f(), f(), f()],
+        _pad3: 42,
+        dpdv: [f(), f(), f()],
+        _pad4: 43,
     };
     let mat = MaterialGpu {
         albedo: [f(), f(), f()],

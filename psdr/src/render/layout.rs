@@ -26,12 +26,12 @@ pub struct TriangleGeom {
     pub light: u32,
 }
 
-/// Per-vertex shading attributes of a triangle (80 bytes).
+/// Per-vertex shading attributes of a triangle and its per-triangle frame (128 bytes, two cache lines).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct TriangleShading {
     pub n0: [f32; 3],
-    /// Bit 0: has vertex normals (else flat shading). Bit 1: has uvs.
+    /// SHADING_HAS_NORMALS: vertex normals (else flat shading); SHADING_HAS_UVS; SHADING_HAS_TANGENT.
     pub flags: u32,
     pub n1: [f32; 3],
     /// Index into the emitter list, or NONE.
@@ -42,10 +42,21 @@ pub struct TriangleShading {
     pub uv1: [f32; 2],
     pub uv2: [f32; 2],
     pub _pad1: [u32; 2],
+    /// Unit geometric normal, on the winding side: `(e1 x e2).normalize()`, once per triangle instead of at
+    /// every hit (it sat on the critical path of every shading point).
+    pub ng: [f32; 3],
+    pub _pad2: u32,
+    /// dp/du' and dp/dv' for the material's transformed uv (the tangent frame's directions before
+    /// orthonormalisation), when the flags have SHADING_HAS_TANGENT (uvs, and a non-degenerate uv map).
+    pub dpdu: [f32; 3],
+    pub _pad3: u32,
+    pub dpdv: [f32; 3],
+    pub _pad4: u32,
 }
 
 pub const SHADING_HAS_NORMALS: u32 = 1;
 pub const SHADING_HAS_UVS: u32 = 2;
+pub const SHADING_HAS_TANGENT: u32 = 4;
 
 /// A material (80 bytes). Texture indices are NONE for constants.
 #[repr(C)]
@@ -132,7 +143,7 @@ mod tests {
     fn sizes_are_multiples_of_16_for_std430_arrays() {
         assert_eq!(std::mem::size_of::<BvhNode>(), 80);
         assert_eq!(std::mem::size_of::<TriangleGeom>(), 48);
-        assert_eq!(std::mem::size_of::<TriangleShading>(), 80);
+        assert_eq!(std::mem::size_of::<TriangleShading>(), 128);
         assert_eq!(std::mem::size_of::<MaterialGpu>(), 80);
         assert_eq!(std::mem::size_of::<TextureGpu>(), 16);
         assert_eq!(std::mem::size_of::<EmitterGpu>(), 16);

@@ -3,6 +3,7 @@
 //! distribution. Building this is the only place scene semantics turn into numbers.
 
 use super::layout::*;
+use super::shading::apply_uv_transform;
 use crate::error::{Error, Result};
 use crate::scene::{Color, Scalar, Scene};
 use glam::Vec3;
@@ -121,6 +122,9 @@ impl SceneData {
             d.triangle_source = order.clone();
             d.nodes = bvh.nodes;
         }
+        for (tri, sh) in d.triangles.iter().zip(d.shading.iter_mut()) {
+            triangle_frame(tri, sh, &d.materials[tri.material as usize]);
+        }
         // Light distribution: emitting triangles chosen proportionally to area x luminance, listed in scene
         // order so that the BVH build (leaf sizes, build quality) never changes which light a sample picks.
         let total: f64 = light_weight_of.iter().map(|&w| w as f64).sum();
@@ -230,6 +234,21 @@ fn material(m: &crate::scene::Material) -> MaterialGpu {
         _pad: [0; 3],
         uv_row0: [r0[0], r0[1], r0[2], 0.0],
         uv_row1: [r1[0], r1[1], r1[2], 0.0],
+    }
+}
+
+/// The per-triangle part of `surface_point`'s frame: the unit geometric normal and, for a uv-mapped triangle,
+/// dp/du' and dp/dv' for the material's transformed uv (the same operations as shading a hit used to do).
+fn triangle_frame(tri: &TriangleGeom, sh: &mut TriangleShading, mat: &MaterialGpu) {
+    let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
+    sh.ng = e1.cross(e2).normalize().to_array();
+    let [uv0, uv1, uv2] = [sh.uv0, sh.uv1, sh.uv2].map(|uv| apply_uv_transform(mat, uv.into()));
+    let (duv1, duv2) = (uv1 - uv0, uv2 - uv0);
+    let det = duv1.x * duv2.y - duv1.y * duv2.x;
+    if det != 0.0 && sh.flags & SHADING_HAS_UVS != 0 {
+        sh.flags |= SHADING_HAS_TANGENT;
+        sh.dpdu = ((e1 * duv2.y - e2 * duv1.y) * (1.0 / det)).to_array();
+        sh.dpdv = ((e2 * duv1.x - e1 * duv2.x) * (1.0 / det)).to_array();
     }
 }
 
