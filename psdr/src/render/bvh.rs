@@ -308,9 +308,7 @@ pub fn trace_occluded(nodes: &[BvhNode], tris: &[TriangleGeom], origin: Vec3, di
 mod tests {
     use super::*;
     use crate::render::sampler::sample_1d;
-    use crate::render::scene_data::bvh_build_params;
-    use obvhs::{aabb::Aabb, cwbvh::builder::build_cwbvh};
-    use std::time::Duration;
+    use crate::render::scene_data::build_bvh;
 
     /// Every triangle tested in order: the truth traversal must reproduce.
     fn brute_closest(tris: &[TriangleGeom], o: Vec3, d: Vec3, t_max: f32) -> Option<Hit> {
@@ -345,15 +343,7 @@ mod tests {
                 TriangleGeom { v0: c.into(), e1: e1.into(), e2: e2.into(), ..Default::default() }
             })
             .collect();
-        let aabbs: Vec<Aabb> = tris
-            .iter()
-            .map(|t| {
-                let v0 = Vec3::from(t.v0);
-                let (v1, v2) = (v0 + Vec3::from(t.e1), v0 + Vec3::from(t.e2));
-                Aabb::new(v0.min(v1).min(v2).into(), v0.max(v1).max(v2).into())
-            })
-            .collect();
-        let bvh = build_cwbvh(&aabbs, bvh_build_params(), &mut Duration::default());
+        let bvh = build_bvh(&tris);
         let ordered = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
         (bvh.nodes, ordered)
     }

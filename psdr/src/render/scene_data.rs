@@ -7,7 +7,7 @@ use super::shading::apply_uv_transform;
 use crate::error::{Error, Result};
 use crate::scene::{Color, Scalar, Scene};
 use glam::Vec3;
-use obvhs::{aabb::Aabb, cwbvh::builder::build_cwbvh, BvhBuildParams};
+use obvhs::{aabb::Aabb, cwbvh::builder::build_cwbvh, cwbvh::CwBvh, BvhBuildParams};
 use std::time::Duration;
 
 #[derive(Clone, Debug, Default)]
@@ -96,17 +96,8 @@ impl SceneData {
                 }
             }
         }
-        // BVH over triangle bounds; degenerate triangles stay in (they can never be hit).
-        let aabbs: Vec<Aabb> = tris
-            .iter()
-            .map(|t| {
-                let v0 = Vec3::from(t.v0);
-                let (v1, v2) = (v0 + Vec3::from(t.e1), v0 + Vec3::from(t.e2));
-                Aabb::new(v0.min(v1).min(v2).into(), v0.max(v1).max(v2).into())
-            })
-            .collect();
-        if !aabbs.is_empty() {
-            let bvh = build_cwbvh(&aabbs, bvh_build_params(), &mut Duration::default());
+        if !tris.is_empty() {
+            let bvh = build_bvh(&tris);
             let depth = tree_depth(&bvh.nodes);
             if depth > BVH_STACK_SIZE {
                 return Err(Error::Invalid(format!(
@@ -237,6 +228,20 @@ fn material(m: &crate::scene::Material) -> MaterialGpu {
     }
 }
 
+/// The BVH over triangle bounds (degenerate triangles stay in: they can never be hit). Its leaves index
+/// `primitive_indices`, so the kernels want the triangles reordered by it.
+pub fn build_bvh(tris: &[TriangleGeom]) -> CwBvh {
+    let aabbs: Vec<Aabb> = tris
+        .iter()
+        .map(|t| {
+            let v0 = Vec3::from(t.v0);
+            let (v1, v2) = (v0 + Vec3::from(t.e1), v0 + Vec3::from(t.e2));
+            Aabb::new(v0.min(v1).min(v2).into(), v0.max(v1).max(v2).into())
+        })
+        .collect();
+    build_cwbvh(&aabbs, bvh_build_params(), &mut Duration::default())
+}
+
 /// The per-triangle part of `surface_point`'s frame: the unit geometric normal and, for a uv-mapped triangle,
 /// dp/du' and dp/dv' for the material's transformed uv (the same operations as shading a hit used to do).
 fn triangle_frame(tri: &TriangleGeom, sh: &mut TriangleShading, mat: &MaterialGpu) {
@@ -255,7 +260,7 @@ fn triangle_frame(tri: &TriangleGeom, sh: &mut TriangleShading, mat: &MaterialGp
 /// obvhs's medium build: PLOC + reinsertion for the binary tree, converted to the 8-wide compressed tree with
 /// at most 3 triangles per leaf (the encoding's limit) by the cost-optimal collapse of Ylitie et al.
 /// Both backends trace this same tree.
-pub fn bvh_build_params() -> BvhBuildParams {
+fn bvh_build_params() -> BvhBuildParams {
     BvhBuildParams::medium_build()
 }
 
