@@ -55,6 +55,12 @@ vec2 sample_2d(uint seed, uint pixel, uint sample_, uint dim) {
     return vec2(float(x >> 8u), float(y >> 8u)) * (1.0 / 16777216.0);
 }
 
+// Independent uniform draws for the pair (dim, dim + 1), dim even: one pcg4d hash, no stratification.
+vec2 independent_2d(uint seed, uint pixel, uint sample_, uint dim) {
+    uvec4 h = pcg4d(uvec4(pixel, dim, seed, sample_));
+    return vec2(float(h.x >> 8u), float(h.y >> 8u)) * (1.0 / 16777216.0);
+}
+
 const uint DIM_PIXEL_X = 0u;
 const uint DIM_PIXEL_Y = 1u;
 const uint DIM_BOUNCE_BASE = 2u;
@@ -66,6 +72,8 @@ const uint DIM_BSDF_V = 3u;
 const uint DIM_LIGHT_SELECT = 4u;
 const uint DIM_LOBE = 5u;
 const uint DIM_ROULETTE = 6u;
+// Bounces whose draws are stratified; deeper bounces draw independent_2d numbers (see the Rust twin for why).
+const uint STRATIFIED_BOUNCES = 1u;
 
 struct Sampler {
     uint seed;
@@ -82,11 +90,28 @@ vec2 sampler_get2(Sampler s, uint dim) {
 }
 
 float sampler_bounce(Sampler s, uint bounce, uint which) {
-    return sampler_get(s, DIM_BOUNCE_BASE + bounce * DIMS_PER_BOUNCE + which);
+    uint dim = DIM_BOUNCE_BASE + bounce * DIMS_PER_BOUNCE + which;
+    if (bounce < STRATIFIED_BOUNCES) {
+        return sampler_get(s, dim);
+    } else {
+        // Coordinate dim & 1 of the pair, as for stratified draws (a pair draw equals two single draws).
+        vec2 xy = independent_2d(s.seed, s.pixel, s.sample_, dim & ~1u);
+        if ((dim & 1u) == 0u) {
+            return xy.x;
+        } else {
+            return xy.y;
+        }
+    }
 }
 
+// The pair (which, which + 1) of bounce `bounce`; which must be even.
 vec2 sampler_bounce2(Sampler s, uint bounce, uint which) {
-    return sampler_get2(s, DIM_BOUNCE_BASE + bounce * DIMS_PER_BOUNCE + which);
+    uint dim = DIM_BOUNCE_BASE + bounce * DIMS_PER_BOUNCE + which;
+    if (bounce < STRATIFIED_BOUNCES) {
+        return sampler_get2(s, dim);
+    } else {
+        return independent_2d(s.seed, s.pixel, s.sample_, dim);
+    }
 }
 
 #endif

@@ -79,7 +79,8 @@ fn roughness_constant_matches_finite_differences() {
     // The walnut table top is glossy (specular 0.5) and large in the image.
     let mut s = room(40, 30, 8);
     s.camera.origin = glam::Vec3::new(0.2, 1.6, 0.4);
-    check_against_fd(&s, "material/walnut/roughness", 0.02, &[0]);
+    // Step 0.04: roughness changes the sampled lobe directions, so FD noise falls only like 1/step.
+    check_against_fd(&s, "material/walnut/roughness", 0.04, &[0]);
 }
 
 #[test]
