@@ -1,5 +1,6 @@
 // The counter-based sampler. Rust twin: psdr/src/render/sampler.rs (pcg4d, Jarzynski & Olano 2020; pairs of
-// dimensions are shuffled, Owen-scrambled 2-D Sobol sequences over a pixel's samples, Burley 2020).
+// dimensions are shuffled, Owen-scrambled 2-D Sobol sequences over a pixel's samples, Burley 2020; bounces from
+// STRATIFIED_BOUNCES on draw independent hashes).
 #ifndef PSDR_SAMPLER_GLSL
 #define PSDR_SAMPLER_GLSL
 

@@ -3,9 +3,10 @@
 //! pair is a shuffled, Owen-scrambled 2-D Sobol sequence (Burley, "Practical Hash-based Owen Scrambling", JCGT
 //! 2020), so the first 2^m samples of a pair form a (0, m, 2)-net: pixel jitter, light and BSDF samples are
 //! stratified (an edge pixel's coverage error falls like N^-3/4 instead of N^-1/2), yet every draw is uniform
-//! and renders with different seeds are independent. Per-(seed, pixel, pair) scrambles come from pcg4d
-//! (Jarzynski & Olano, "Hash Functions for GPU Rendering", JCGT 2020). Only u32 multiply/add/xor/shift and bit
-//! reversal, so Rust and GLSL give identical bits.
+//! and renders with different seeds are independent. `Sampler` stratifies the pixel jitter and the first bounce
+//! and draws deeper bounces as independent hashes (`STRATIFIED_BOUNCES`). Per-(seed, pixel, pair) scrambles
+//! come from pcg4d (Jarzynski & Olano, "Hash Functions for GPU Rendering", JCGT 2020). Only u32
+//! multiply/add/xor/shift and bit reversal, so Rust and GLSL give identical bits.
 
 /// pcg4d: a 4-D -> 4-D u32 hash with good avalanche.
 #[inline(always)]
