@@ -115,7 +115,8 @@ pub const DIM_ROULETTE: u32 = 6;
 /// Bounces whose draws are stratified (pixel jitter always is); deeper bounces draw `independent_2d` numbers.
 /// Measured on the example room at 256x192 and 16 spp (6 seeds, against 1024 spp): stratifying nothing but the
 /// pixel jitter gives RMSE 0.0188, adding bounce 0 (first-hit light and BSDF samples) 0.0179, every bounce
-/// 0.0177, at 7-10 % more render time than stopping after bounce 0 (the scrambled Sobol draws cost ~4x a hash).
+/// 0.0177, at 7-10 % more render time than stopping after bounce 0 (replacing every scrambled Sobol draw by
+/// one hash saved 10-12 %).
 pub const STRATIFIED_BOUNCES: u32 = 1;
 
 /// The random stream of one (seed, pixel, sample).
