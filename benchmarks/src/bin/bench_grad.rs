@@ -15,8 +15,9 @@
 //! room, wall albedo and ceiling-light radiance, L2 to a target with both perturbed. 128x96; with --large
 //! also (a) at 512x384, 16 spp.
 //!
-//! One psdr iteration = `analytic_gradient` with one replica: its primal render (which gives the loss value and
-//! the adjoint) and the backward pass, best over the seeds. One Mitsuba iteration = parameter update +
+//! One psdr iteration = `GradientEvaluator::gradient` with one replica: its primal render (which gives the loss
+//! value and the adjoint) and the backward pass. psdr runs half its seeds before Mitsuba's runs and half after;
+//! its time is the slower of the two halves' best (drift of the shared machine cannot favour psdr). One Mitsuba iteration = parameter update +
 //! `mi.render` + L2 + `dr.backward`, best over the seeds after a warm-up iteration (reported as cold).
 //! Relative error = |g - g_fd| / |g_fd| over the parameter's compared components, per seed; the CSV gives its
 //! mean and standard deviation over seeds and the error of the seed-averaged gradient (a bias indicator).
@@ -24,7 +25,7 @@
 use anyhow::{bail, Context};
 use psdr::backend::{Backend, CpuBackend};
 use psdr::export::mitsuba::export_mitsuba;
-use psdr::grad::{analytic_gradient, central_difference, AdOptions, FdOptions, ImageLoss, Output, ParamPath};
+use psdr::grad::{central_difference, AdOptions, FdOptions, GradientEvaluator, ImageLoss, Output, ParamPath};
 use psdr::render::SceneData;
 use psdr::scene::{load_scene, Scene};
 use serde_json::{json, Value};
@@ -70,6 +71,9 @@ struct Case {
 struct Runs {
     grads: Vec<Vec<Vec<f64>>>,
     times: Vec<f64>,
+    /// psdr only: the best time of each timing epoch (before and after Mitsuba's runs); the reported time is
+    /// the slower of them, so drift of the machine during a case cannot favour psdr.
+    epochs: Vec<f64>,
     losses: Vec<f64>,
     cold: Option<f64>,
 }
@@ -294,17 +298,33 @@ fn truth(case: &Case, loss: &ImageLoss, p: &Param) -> anyhow::Result<Truth> {
     Ok(Truth { mean, se, low, secs })
 }
 
-fn run_psdr(case: &Case, loss: &ImageLoss, spp: u32, sppe: u32, sppse: u32) -> anyhow::Result<Runs> {
+/// psdr at one sweep point for seeds `seeds`, appended to `runs` as one timing epoch. Material and light
+/// cases keep one `GradientEvaluator` across seeds (their iterations move no geometry, so the BVH is built
+/// once, as in an optimiser's material stage); geometric cases rebuild every iteration (Mitsuba's parameter
+/// update rebuilds its acceleration structure for moved vertices, too).
+fn run_psdr(
+    case: &Case,
+    loss: &ImageLoss,
+    (spp, sppe, sppse): (u32, u32, u32),
+    seeds: std::ops::Range<u32>,
+    evaluator: &mut GradientEvaluator,
+    runs: &mut Runs,
+) -> anyhow::Result<()> {
     let paths: Vec<ParamPath> = case.params.iter().map(|p| p.path.clone()).collect();
     let opts = AdOptions { replicas: 1, edge_samples: sppe, secondary_edge_samples: sppse };
-    let mut runs = Runs::default();
-    for seed in 0..case.seeds {
+    let mut best = f64::INFINITY;
+    for seed in seeds {
         let mut s = case.scene.clone();
         s.settings.spp = spp;
         s.settings.seed = seed * 7919 + 11;
+        if case.geometric {
+            *evaluator = GradientEvaluator::default();
+        }
         let t = Instant::now();
-        let g = analytic_gradient(&s, &paths, loss, &opts, &mut CpuBackend)?;
-        runs.times.push(t.elapsed().as_secs_f64());
+        let g = evaluator.gradient(&s, &paths, loss, &opts, &mut CpuBackend)?;
+        let secs = t.elapsed().as_secs_f64();
+        best = best.min(secs);
+        runs.times.push(secs);
         runs.losses.push(g.loss.context("an L2 loss renders its primal")?);
         // Split the flat gradient per parameter and keep the compared components.
         let mut at = 0;
@@ -316,7 +336,8 @@ fn run_psdr(case: &Case, loss: &ImageLoss, spp: u32, sppe: u32, sppse: u32) -> a
         }
         runs.grads.push(per);
     }
-    Ok(runs)
+    runs.epochs.push(best);
+    Ok(())
 }
 
 fn write_f32(path: &Path, v: &[f32]) -> anyhow::Result<()> {
@@ -533,21 +554,15 @@ fn main() -> anyhow::Result<()> {
                 fmt_vec(&bias)
             );
         }
-        let mut rows = vec![];
-        for &(spp, sppe, sppse) in &case.psdr_sweep {
-            let runs = run_psdr(case, &loss, spp, sppe, sppse)?;
-            let (sppe_s, sppse_s) =
-                if case.geometric { (sppe.to_string(), sppse.to_string()) } else { ("-".into(), "-".into()) };
-            rows.push(Row {
-                case: case.name.clone(),
-                size: size.clone(),
-                method: "psdr".into(),
-                spp,
-                sppe: sppe_s,
-                sppse: sppse_s,
-                runs,
-            });
+        // psdr runs half its seeds before Mitsuba and half after (two timing epochs).
+        let half = case.seeds / 2;
+        let mut psdr_runs: Vec<(Runs, GradientEvaluator)> = vec![];
+        for &point in &case.psdr_sweep {
+            let (mut runs, mut evaluator) = (Runs::default(), GradientEvaluator::default());
+            run_psdr(case, &loss, point, 0..half, &mut evaluator, &mut runs)?;
+            psdr_runs.push((runs, evaluator));
         }
+        let mut rows = vec![];
         let mut primal = Value::Null;
         if !args.no_mitsuba {
             let reference = render(&case.scene, 256, 4242)?;
@@ -564,6 +579,24 @@ fn main() -> anyhow::Result<()> {
                     runs,
                 });
             }
+        }
+        for (&(spp, sppe, sppse), (mut runs, mut evaluator)) in case.psdr_sweep.iter().zip(psdr_runs) {
+            run_psdr(case, &loss, (spp, sppe, sppse), half..case.seeds, &mut evaluator, &mut runs)?;
+            println!(
+                "  psdr spp {spp} sppe {sppe} sppse {sppse}: best s/iter before Mitsuba {:.4}, after {:.4}",
+                runs.epochs[0], runs.epochs[1]
+            );
+            let (sppe_s, sppse_s) =
+                if case.geometric { (sppe.to_string(), sppse.to_string()) } else { ("-".into(), "-".into()) };
+            rows.push(Row {
+                case: case.name.clone(),
+                size: size.clone(),
+                method: "psdr".into(),
+                spp,
+                sppe: sppe_s,
+                sppse: sppse_s,
+                runs,
+            });
         }
         // Loss agreement at equal spp (noise included: E[L] = |E[I] - T|^2 + Var/spp, so equal spp is required).
         for r in rows.iter().filter(|r| r.method != "psdr") {
@@ -611,7 +644,11 @@ fn main() -> anyhow::Result<()> {
                 let (lm, lsd) = mean_sd(&r.runs.losses);
                 // Every method's iteration includes its own primal render (the loss value); the forward column
                 // is kept empty for the CSV's earlier readers.
-                let grad = min(&r.runs.times);
+                let grad = if r.runs.epochs.is_empty() {
+                    min(&r.runs.times)
+                } else {
+                    r.runs.epochs.iter().cloned().fold(0.0, f64::max)
+                };
                 let iter = grad;
                 writeln!(
                     csv,

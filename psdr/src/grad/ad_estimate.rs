@@ -63,12 +63,48 @@ pub fn analytic_gradient(
     opts: &AdOptions,
     backend: &mut dyn Backend,
 ) -> Result<AdEstimate> {
+    GradientEvaluator::default().gradient(scene, params, loss, opts, backend)
+}
+
+/// `analytic_gradient` for a scene that changes between calls (an optimiser's iterations): it keeps the scene
+/// buffers of the last call and rebuilds the BVH only when some triangle moved (`SceneData::rebuild`), so
+/// material and light stages do not pay for a tree build per iteration. Results equal `analytic_gradient`'s.
+#[derive(Default)]
+pub struct GradientEvaluator {
+    data: Option<SceneData>,
+}
+
+impl GradientEvaluator {
+    pub fn gradient(
+        &mut self,
+        scene: &Scene,
+        params: &[ParamPath],
+        loss: &ImageLoss,
+        opts: &AdOptions,
+        backend: &mut dyn Backend,
+    ) -> Result<AdEstimate> {
+        let data = match self.data.take() {
+            Some(previous) => previous.rebuild(scene)?,
+            None => SceneData::build(scene)?,
+        };
+        let g = gradient_on(scene, &data, params, loss, opts, backend);
+        self.data = Some(data);
+        g
+    }
+}
+
+fn gradient_on(
+    scene: &Scene,
+    data: &SceneData,
+    params: &[ParamPath],
+    loss: &ImageLoss,
+    opts: &AdOptions,
+    backend: &mut dyn Backend,
+) -> Result<AdEstimate> {
     let (pose_params, other): (Vec<ParamPath>, Vec<ParamPath>) = params.iter().cloned().partition(is_pose);
     let material = GradLayout::new(scene, &other)?;
     let pose = PoseLayout::new(scene, &pose_params)?;
     let radiance = matches!(loss.output(), Output::Radiance);
-    let data = SceneData::build(scene)?;
-    let blank = blank_frame(scene);
     let boundary = BoundarySamples {
         primary: opts.edge_samples,
         secondary: if radiance { opts.secondary_edge_samples } else { 0 },
@@ -78,21 +114,21 @@ pub fn analytic_gradient(
         let mut settings = scene.settings.clone();
         settings.seed = scene.settings.seed.wrapping_add(r);
         let adjoint = if loss.needs_primal() {
-            let primal = backend.render(&data, &settings, &|_, _| {})?;
+            let primal = backend.render(data, &settings, &|_, _| {})?;
             losses.push(loss.eval(&primal)?);
             loss.adjoint(&primal)?
         } else {
-            loss.adjoint(&blank)?
+            loss.adjoint(&blank_frame(scene))?
         };
         settings.seed = settings.seed.wrapping_add(ADJOINT_SEED_OFFSET);
         let g_material = match (radiance, material.len) {
-            (true, n) if n > 0 => radiance_vjp(&data, &settings, &material, &adjoint)?,
+            (true, n) if n > 0 => radiance_vjp(data, &settings, &material, &adjoint)?,
             _ => vec![0.0; material.len],
         };
         let g_pose = match (radiance, pose.len) {
             (_, 0) => vec![],
-            (true, _) => radiance_pose_vjp(scene, &data, &settings, &pose, &adjoint, boundary)?,
-            (false, _) => aov_vjp(scene, &data, &settings, &pose, loss.output(), &adjoint, opts.edge_samples)?,
+            (true, _) => radiance_pose_vjp(scene, data, &settings, &pose, &adjoint, boundary)?,
+            (false, _) => aov_vjp(scene, data, &settings, &pose, loss.output(), &adjoint, opts.edge_samples)?,
         };
         // Back to the caller's parameter order.
         let (mut gm, mut gp) = (g_material.into_iter(), g_pose.into_iter());

@@ -22,7 +22,7 @@ mod primary_edges;
 mod radiance_pose_vjp;
 mod secondary_edges;
 
-pub use ad_estimate::{analytic_gradient, AdEstimate, AdOptions};
+pub use ad_estimate::{analytic_gradient, AdEstimate, AdOptions, GradientEvaluator};
 pub use aov_vjp::aov_vjp;
 pub use bsdf_grad::{bsdf_eval_grad, BsdfGrad};
 pub use finite_difference::{central_difference, mean_and_std_err, FdEstimate, FdOptions};

@@ -3,7 +3,7 @@
 //! its local estimator terms, and the detached densities of its next-event and continuation samples.
 //! Memory is one record per thread, bounded by max_depth, reused across samples.
 
-use crate::render::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample, BsdfParams};
+use crate::render::bsdf::{bsdf_at, bsdf_eval_pdf, bsdf_sample_at, BsdfParams};
 use crate::render::bvh::trace_closest;
 use crate::render::camera::camera_ray;
 use crate::render::layout::{FrameParams, NONE};
@@ -142,6 +142,7 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
         }
         let wi = sp.to_local(-dir);
         v.wi_local = wi;
+        let bsdf = bsdf_at(&sp.bsdf, wi);
         let (u_sel, u_lobe) = s.bounce2(depth, DIM_LIGHT_SELECT);
         if fp.light_count > 0 {
             let (u1, u2) = s.bounce2(depth, DIM_LIGHT_U);
@@ -152,10 +153,11 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
             let wl = to_light / dist;
             let cos_l = if ls.two_sided { ls.n.dot(-wl).abs() } else { ls.n.dot(-wl) };
             if cos_l > 0.0 && dist > 0.0 {
-                let f = bsdf_eval(&sp.bsdf, wi, sp.to_local(wl));
+                let wo = sp.to_local(wl);
+                let (f, pdf) = bsdf_eval_pdf(&bsdf, wo);
                 if f != Vec3::ZERO && unoccluded(d, sp.p, sp.ng, ls.p, ls.n) {
                     let light_pdf = ls.pdf_area * dist2 / cos_l;
-                    let w = mis_power(light_pdf, bsdf_pdf(&sp.bsdf, wi, sp.to_local(wl)));
+                    let w = mis_power(light_pdf, pdf);
                     let nee = RecordedNee {
                         triangle: d.lights[select_light(&d.lights, fp.light_count, u_sel) as usize].triangle,
                         dir: wl,
@@ -163,7 +165,7 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
                         radiance: ls.radiance,
                         w_over_pdf: w / light_pdf,
                         f,
-                        wo_local: sp.to_local(wl),
+                        wo_local: wo,
                     };
                     v.local += f * ls.radiance * nee.w_over_pdf;
                     v.nee = Some(nee);
@@ -171,7 +173,7 @@ pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, d
             }
         }
         let (b1, b2) = s.bounce2(depth, DIM_BSDF_U);
-        let Some(bs) = bsdf_sample(&sp.bsdf, wi, u_lobe, b1, b2) else {
+        let Some(bs) = bsdf_sample_at(&bsdf, u_lobe, b1, b2) else {
             rec.vertices.push(v);
             break;
         };

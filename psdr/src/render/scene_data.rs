@@ -38,6 +38,18 @@ pub fn luminance(c: Vec3) -> f32 {
 
 impl SceneData {
     pub fn build(scene: &Scene) -> Result<SceneData> {
+        Self::build_over(scene, None)
+    }
+
+    /// `build(scene)` for a scene that may differ from the one `self` was built from only in appearance
+    /// (materials, textures, light radiance, camera): when every triangle is where it was, bit for bit, the BVH
+    /// and the triangle order are reused instead of rebuilt; the result is identical to `build(scene)` either
+    /// way. An optimiser's material and light stages call this once per iteration.
+    pub fn rebuild(&self, scene: &Scene) -> Result<SceneData> {
+        Self::build_over(scene, Some(self))
+    }
+
+    fn build_over(scene: &Scene, previous: Option<&SceneData>) -> Result<SceneData> {
         crate::scene::validate::validate(scene).map_err(|(f, m)| Error::Invalid(format!("scene: {f}: {m}")))?;
         let mut d = SceneData { object_count: scene.objects.len() as u32, ..Default::default() };
         d.camera = camera(scene);
@@ -97,21 +109,26 @@ impl SceneData {
             }
         }
         if !tris.is_empty() {
-            let bvh = build_bvh(&tris);
-            let depth = tree_depth(&bvh.nodes);
-            if depth > BVH_STACK_SIZE {
-                return Err(Error::Invalid(format!(
-                    "scene: BVH depth {depth} exceeds the traversal stack ({BVH_STACK_SIZE})"
-                )));
-            }
+            let (nodes, order) = match previous.filter(|p| p.has_triangles_at(&tris)) {
+                Some(p) => (p.nodes.clone(), p.triangle_source.clone()),
+                None => {
+                    let bvh = build_bvh(&tris);
+                    let depth = tree_depth(&bvh.nodes);
+                    if depth > BVH_STACK_SIZE {
+                        return Err(Error::Invalid(format!(
+                            "scene: BVH depth {depth} exceeds the traversal stack ({BVH_STACK_SIZE})"
+                        )));
+                    }
+                    (bvh.nodes, bvh.primitive_indices)
+                }
+            };
             // Reorder triangles so leaves index them directly (no indirection in the kernels). Without spatial
             // splits every triangle sits in exactly one leaf: the order is a permutation.
-            let order = &bvh.primitive_indices;
             debug_assert_eq!(order.len(), tris.len());
             d.triangles = order.iter().map(|&i| tris[i as usize]).collect();
             d.shading = order.iter().map(|&i| shading[i as usize]).collect();
-            d.triangle_source = order.clone();
-            d.nodes = bvh.nodes;
+            d.triangle_source = order;
+            d.nodes = nodes;
         }
         for (tri, sh) in d.triangles.iter().zip(d.shading.iter_mut()) {
             triangle_frame(tri, sh, &d.materials[tri.material as usize]);
@@ -176,6 +193,17 @@ impl SceneData {
         } else {
             self.lights.len() as u32
         }
+    }
+
+    /// True when `tris` (scene order) are this data's triangles, vertex for vertex bit-identical: the BVH
+    /// built over them would be this one (obvhs builds deterministically from the bounds).
+    fn has_triangles_at(&self, tris: &[TriangleGeom]) -> bool {
+        let bits = |v: [f32; 3]| v.map(f32::to_bits);
+        self.triangle_source.len() == tris.len()
+            && self.triangle_source.iter().zip(&self.triangles).all(|(&src, t)| {
+                let n = &tris[src as usize];
+                bits(n.v0) == bits(t.v0) && bits(n.e1) == bits(t.e1) && bits(n.e2) == bits(t.e2)
+            })
     }
 
     /// True when the BVH is the empty-scene placeholder.
@@ -276,4 +304,63 @@ fn tree_depth(nodes: &[BvhNode]) -> usize {
         }
     }
     deepest
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grad::ParamPath;
+    use crate::scene::load_scene;
+
+    fn room() -> Scene {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json");
+        load_scene(std::path::Path::new(path)).unwrap()
+    }
+
+    fn set(scene: &Scene, path: &str, f: impl Fn(f32) -> f32) -> Scene {
+        let mut s = scene.clone();
+        let p: ParamPath = path.parse().unwrap();
+        let v: Vec<f32> = p.get(&s).unwrap().iter().map(|&x| f(x)).collect();
+        p.set(&mut s, &v).unwrap();
+        s
+    }
+
+    fn assert_same(a: &SceneData, b: &SceneData, what: &str) {
+        assert!(a.nodes == b.nodes && a.triangle_source == b.triangle_source, "{what}: BVH");
+        assert!(a.triangles == b.triangles && a.shading == b.shading, "{what}: triangles");
+        assert!(a.materials == b.materials && a.textures == b.textures && a.texels == b.texels, "{what}: materials");
+        assert!(a.emitters == b.emitters && a.lights == b.lights && a.camera == b.camera, "{what}: lights");
+        assert_eq!(a.light_weight.to_bits(), b.light_weight.to_bits(), "{what}: light weight");
+    }
+
+    /// `rebuild` equals a fresh `build` after appearance changes (which reuse the tree) and after geometry
+    /// changes (which must not); the reuse test itself tells the two apart.
+    #[test]
+    fn rebuild_equals_build_and_reuses_the_tree_only_for_unmoved_triangles() {
+        let base = room();
+        let first = SceneData::build(&base).unwrap();
+        let appearance = [
+            set(&base, "material/wall/albedo", |x| x * 0.8),
+            set(&base, "light/ceiling_light/radiance", |x| x * 3.0),
+            set(&base, "material/oak_floor/uv_scale", |x| x * 1.3),
+        ];
+        for (i, s) in appearance.iter().enumerate() {
+            let tris_unmoved = first.rebuild(s).unwrap();
+            assert_same(&tris_unmoved, &SceneData::build(s).unwrap(), &format!("appearance change {i}"));
+        }
+        let moved = set(&base, &format!("object/{}/translation", base.objects[1].name), |x| x + 0.01);
+        let rebuilt = first.rebuild(&moved).unwrap();
+        assert_same(&rebuilt, &SceneData::build(&moved).unwrap(), "moved object");
+        assert!(rebuilt.triangles != first.triangles, "the moved object's triangles moved");
+        // The reuse decision: unmoved triangles are recognised, moved ones are not.
+        let tris_of = |d: &SceneData| {
+            let mut t = vec![TriangleGeom::default(); d.triangles.len()];
+            for (at, &src) in d.triangle_source.iter().enumerate() {
+                t[src as usize] = d.triangles[at];
+            }
+            t
+        };
+        assert!(first.has_triangles_at(&tris_of(&first)));
+        assert!(!first.has_triangles_at(&tris_of(&rebuilt)));
+    }
 }
