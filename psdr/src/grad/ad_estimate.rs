@@ -4,7 +4,7 @@
 use super::aov_vjp::aov_vjp;
 use super::pose_velocity::PoseLayout;
 use super::radiance_pose_vjp::{radiance_pose_vjp, BoundarySamples};
-use super::{mean_and_std_err, radiance_vjp, GradLayout, ImageLoss, Output, ParamPath};
+use super::{mean_and_std_err, radiance_vjp, radiance_vjp_cross, GradLayout, ImageLoss, Output, ParamPath};
 use crate::backend::Backend;
 use crate::error::Result;
 use crate::render::{Frame, SceneData};
@@ -39,7 +39,7 @@ impl Default for AdOptions {
 
 /// Seeds of the adjoint pass are offset from the primal's so that a nonlinear loss (L2) multiplies independent
 /// estimates of the image and of its derivative (the same seed would bias the product).
-const ADJOINT_SEED_OFFSET: u32 = 0x9e37_79b9;
+pub const ADJOINT_SEED_OFFSET: u32 = 0x9e37_79b9;
 
 fn is_pose(p: &ParamPath) -> bool {
     matches!(
@@ -56,6 +56,9 @@ fn is_pose(p: &ParamPath) -> bool {
 /// poses and vertices (interior + primary, direct and indirect boundary terms); depth and mask losses w.r.t.
 /// poses and vertices
 /// (interior + primary boundary; they do not depend on lights or materials, whose gradients are zero).
+/// An L2 radiance loss of light and material parameters only (spp >= 2) takes the fused estimator
+/// (`radiance_vjp_cross`: one pass of paths, its two independently seeded halves giving each other's adjoint);
+/// every other case renders the primal, then runs the backward pass with an independent seed.
 pub fn analytic_gradient(
     scene: &Scene,
     params: &[ParamPath],
@@ -113,6 +116,14 @@ fn gradient_on(
     for r in 0..opts.replicas.max(1) {
         let mut settings = scene.settings.clone();
         settings.seed = scene.settings.seed.wrapping_add(r);
+        // An L2 radiance loss of material and light parameters: one fused pass (see cross_adjoint.rs).
+        if let (true, 0, true, Some(pixelwise)) = (radiance, pose.len, settings.spp >= 2, loss.pixelwise()) {
+            let seed_b = settings.seed.wrapping_add(ADJOINT_SEED_OFFSET);
+            let (g, image) = radiance_vjp_cross(data, &settings, &material, &pixelwise, seed_b)?;
+            losses.push(pixelwise.loss(&image));
+            runs.push(g);
+            continue;
+        }
         let adjoint = if loss.needs_primal() {
             let primal = backend.render(data, &settings, &|_, _| {})?;
             losses.push(loss.eval(&primal)?);

@@ -82,6 +82,17 @@ impl ImageLoss {
         }
     }
 
+    /// The adjoint as a function of each radiance pixel's own value, for losses where it is one (L2 on
+    /// radiance): what the fused estimator (`radiance_vjp_cross`) needs. None for other losses.
+    pub fn pixelwise(&self) -> Option<PixelwiseAdjoint<'_>> {
+        match self {
+            ImageLoss::L2To { output: Output::Radiance, target } => {
+                Some(PixelwiseAdjoint { target, scale: 2.0 / target.len().max(1) as f32 })
+            }
+            _ => None,
+        }
+    }
+
     pub fn eval(&self, f: &Frame) -> Result<f64> {
         match self {
             ImageLoss::Mean(o) => {
@@ -102,5 +113,26 @@ impl ImageLoss {
                 Ok(v.iter().zip(target).map(|(&a, &b)| (a as f64 - b as f64).powi(2)).sum::<f64>() / v.len() as f64)
             }
         }
+    }
+}
+
+/// dLoss/dI_p = scale · (I_p − T_p) for every radiance pixel p: affine in the pixel's value, which is what
+/// makes the fused estimator's products of independent halves unbiased.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelwiseAdjoint<'a> {
+    pub target: &'a [f32],
+    pub scale: f32,
+}
+
+impl PixelwiseAdjoint<'_> {
+    /// The adjoint of pixel `p` (RGB) when its rendered value is `value`.
+    pub fn at(&self, p: usize, value: glam::Vec3) -> glam::Vec3 {
+        (value - glam::Vec3::from_slice(&self.target[p * 3..p * 3 + 3])) * self.scale
+    }
+
+    /// The loss value of a whole radiance image (mean squared difference).
+    pub fn loss(&self, image: &[f32]) -> f64 {
+        image.iter().zip(self.target).map(|(&a, &b)| (a as f64 - b as f64).powi(2)).sum::<f64>()
+            / image.len().max(1) as f64
     }
 }

@@ -54,7 +54,7 @@ pub struct GradLayout {
     /// Per material: which derivatives of its BSDF values some parameter needs.
     material_wanted: Vec<Wanted>,
     /// Some parameter moves shading normals (normal-map texels, the uv transform of a normal-mapped material).
-    shading_normal_wanted: bool,
+    pub(super) shading_normal_wanted: bool,
     /// Per material: offsets of uv scale (2) and rotation (1) gradients, and the transform itself.
     uv_scale: Vec<Option<usize>>,
     uv_rotation: Vec<Option<usize>>,
@@ -209,7 +209,7 @@ pub fn radiance_vjp(
 }
 
 /// Distributes one path's adjoint `delta` (already divided by spp) onto the parameters.
-fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVertex], delta: Vec3, grad: &mut [f64]) {
+pub(super) fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVertex], delta: Vec3, grad: &mut [f64]) {
     let mut r_next = Vec3::ZERO; // R_{k+1}
     for v in verts.iter().rev() {
         let a = delta * v.throughput;
@@ -272,7 +272,7 @@ fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVertex], delta
 
 /// Distributes one path's adjoint onto normal-map texels: at each vertex whose map has requested texels,
 /// dL/dn_s from its next-event and continuation terms (R_{k+1} as in `backward_sweep`), through the mapping.
-fn normal_map_sweep(d: &SceneData, l: &GradLayout, rec: &PathRecord, delta: Vec3, grad: &mut [f64]) {
+pub(super) fn normal_map_sweep(d: &SceneData, l: &GradLayout, rec: &PathRecord, delta: Vec3, grad: &mut [f64]) {
     let verts = &rec.vertices;
     // R_{k+1} for every k, from the back.
     let mut r_after = vec![Vec3::ZERO; verts.len()];
