@@ -17,7 +17,8 @@
 //!
 //! One psdr iteration = `GradientEvaluator::gradient` with one replica: its primal render (which gives the loss
 //! value and the adjoint) and the backward pass. psdr runs half its seeds before Mitsuba's runs and half after;
-//! its time is the slower of the two halves' best (drift of the shared machine cannot favour psdr). One Mitsuba iteration = parameter update +
+//! its time is the slower of the two halves' best (drift of the shared machine cannot favour psdr), each half
+//! after an untimed warm-up iteration. One Mitsuba iteration = parameter update +
 //! `mi.render` + L2 + `dr.backward`, best over the seeds after a warm-up iteration (reported as cold).
 //! Relative error = |g - g_fd| / |g_fd| over the parameter's compared components, per seed; the CSV gives its
 //! mean and standard deviation over seeds and the error of the seed-averaged gradient (a bias indicator).
@@ -248,7 +249,9 @@ fn material_case(quick: bool) -> anyhow::Result<Case> {
         } else {
             FdPlan { spp: 512, replicas: 4, low_spp: 64 }
         },
-        psdr_sweep: spps.iter().map(|&s| (s, 0, 0)).collect(),
+        // psdr also at 8 and 32 spp: its error curve bends between 4 and 64 spp (each half of the fused
+        // estimator's samples is stratified on its own), so equal-error times come from nearby points.
+        psdr_sweep: [4, 8, 16, 32, 64].iter().map(|&s| (s, 0, 0)).collect(),
         mitsuba_integrators: vec![json!({"label": "prb", "type": "prb", "spp": spps})],
         mitsuba_fd: None,
         // Cheap per seed, and its error is carried by a few emitter-silhouette pixels (heavy-tailed): 4 seeds
@@ -313,6 +316,17 @@ fn run_psdr(
     let paths: Vec<ParamPath> = case.params.iter().map(|p| p.path.clone()).collect();
     let opts = AdOptions { replicas: 1, edge_samples: sppe, secondary_edge_samples: sppse };
     let mut best = f64::INFINITY;
+    // One untimed warm-up iteration per epoch, as Mitsuba gets one per integrator: the first iteration after
+    // another method ran pays page faults for its buffers (1.3-1.7 s of 6.5 s at 512x384).
+    let warm = |seed: u32, evaluator: &mut GradientEvaluator| -> anyhow::Result<()> {
+        let mut s = case.scene.clone();
+        (s.settings.spp, s.settings.seed) = (spp, seed * 7919 + 11);
+        evaluator.gradient(&s, &paths, loss, &opts, &mut CpuBackend)?;
+        Ok(())
+    };
+    if let Some(first) = seeds.clone().next() {
+        warm(first, evaluator)?;
+    }
     for seed in seeds {
         let mut s = case.scene.clone();
         s.settings.spp = spp;
@@ -562,14 +576,14 @@ fn main() -> anyhow::Result<()> {
             run_psdr(case, &loss, point, 0..half, &mut evaluator, &mut runs)?;
             psdr_runs.push((runs, evaluator));
         }
-        let mut rows = vec![];
+        let (mut rows, mut mitsuba_rows) = (vec![], vec![]);
         let mut primal = Value::Null;
         if !args.no_mitsuba {
             let reference = render(&case.scene, 256, 4242)?;
             let (m, pc) = run_mitsuba(case, &work, &reference)?;
             primal = pc;
             for (label, spp, runs) in m {
-                rows.push(Row {
+                mitsuba_rows.push(Row {
                     case: case.name.clone(),
                     size: size.clone(),
                     method: format!("mitsuba_{label}"),
@@ -598,7 +612,8 @@ fn main() -> anyhow::Result<()> {
                 runs,
             });
         }
-        // Loss agreement at equal spp (noise included: E[L] = |E[I] - T|^2 + Var/spp, so equal spp is required).
+        rows.append(&mut mitsuba_rows); // psdr's rows first in the CSV
+                                        // Loss agreement at equal spp (noise included: E[L] = |E[I] - T|^2 + Var/spp, so equal spp is required).
         for r in rows.iter().filter(|r| r.method != "psdr") {
             if let Some(o) = rows.iter().find(|o| o.method == "psdr" && o.spp == r.spp) {
                 let (lm, ls) = mean_sd(&r.runs.losses);
