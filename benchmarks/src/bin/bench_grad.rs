@@ -9,8 +9,9 @@
 //! writes DIR/grad.csv and DIR/grad.svg (default benchmarks/results). Needs benchmarks/setup_mitsuba.sh
 //! (DRJIT_LIBLLVM_PATH defaults to Debian's libLLVM 19).
 //!
-//! Scenes: (a) the issue's room case, a flat-shaded blue cube (0.5 m, yaw 30 deg) resting on the floor of a
-//! closed room (inward box 4 x 2.6 x 5, diffuse 0.7) under a ceiling light, d/dx of the cube's translation,
+//! Scenes: (a) the issue's room case (examples/cube_room), a flat-shaded blue cube (0.5 m, yaw 30 deg)
+//! resting on the floor of a closed room (inward box 4 x 2.6 x 5, diffuse 0.7) under a ceiling light, d/dx of
+//! the cube's translation,
 //! L2 to a target with the cube moved 5 cm along x; (b) the same with the cube lifted 5 cm; (c) the example
 //! room, wall albedo and ceiling-light radiance, L2 to a target with both perturbed. 128x96; with --large
 //! also (a) at 512x384, 16 spp.
@@ -89,22 +90,15 @@ struct Row {
     runs: Runs,
 }
 
-fn room_with_cube(lift: f32, width: u32, height: u32) -> String {
-    format!(
-        r#"{{ "format": "psdr-scene", "version": 1,
-  "camera": {{ "origin": [0.4, 1.3, 2.2], "target": [0, 0.3, 0], "up": [0, 1, 0], "fov_y": 45, "width": {width}, "height": {height} }},
-  "render": {{ "spp": 16, "max_depth": 3, "rr_depth": 3 }},
-  "materials": [ {{ "name": "wall", "albedo": 0.7, "specular": 0 }}, {{ "name": "blue", "albedo": [0.1, 0.3, 0.8], "specular": 0 }} ],
-  "shapes": [
-    {{ "name": "room", "type": "box", "size": [4, 2.6, 5], "inward": true, "material": "wall",
-       "transform": {{ "translation": [0, 1.3, 0] }} }},
-    {{ "name": "cube", "type": "box", "size": [0.5, 0.5, 0.5], "material": "blue",
-       "transform": {{ "translation": [0, {}, 0], "rotation_deg": [0, 30, 0] }} }},
-    {{ "name": "light", "type": "rectangle", "size": [1, 1], "material": "wall",
-       "transform": {{ "translation": [0, 2.59, 0], "rotation_deg": [90, 0, 0] }}, "emitter": {{ "radiance": 5 }} }} ] }}
-"#,
-        0.25 + lift
-    )
+/// The issue's room case, shipped as examples/cube_room (the tests' scene too), at `width` x `height` with the
+/// cube raised by `lift`.
+fn room_with_cube(lift: f32, width: u32, height: u32) -> anyhow::Result<Scene> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/cube_room/scene.json");
+    let mut s = load_scene(&path).with_context(|| format!("loading {}", path.display()))?;
+    (s.camera.width, s.camera.height) = (width, height);
+    let cube = s.object_index("cube").context("examples/cube_room has no cube")?;
+    s.objects[cube].pose.translation.y += lift;
+    Ok(s)
 }
 
 /// Mitsuba ids of an object's shapes, as the exporter writes them.
@@ -132,11 +126,9 @@ fn l2(loss_target: &[f32]) -> ImageLoss {
     ImageLoss::L2To { output: Output::Radiance, target: loss_target.to_vec() }
 }
 
-fn cube_case(dir: &Path, lift: f32, width: u32, height: u32, large: bool, quick: bool) -> anyhow::Result<Case> {
+fn cube_case(lift: f32, width: u32, height: u32, large: bool, quick: bool) -> anyhow::Result<Case> {
     let name = if lift == 0.0 { "cube_on_floor" } else { "cube_lifted" };
-    let p = dir.join(format!("{name}_{width}x{height}.json"));
-    std::fs::write(&p, room_with_cube(lift, width, height))?;
-    let scene = load_scene(&p)?;
+    let scene = room_with_cube(lift, width, height)?;
     let mut t = scene.clone();
     t.objects[1].pose.translation.x += 0.05;
     let target_spp = if large { 256 } else { 1024 };
@@ -529,11 +521,11 @@ fn main() -> anyhow::Result<()> {
     let wanted = |name: &str| args.only.as_deref().is_none_or(|o| o == name);
     let mut cases = vec![];
     if args.large {
-        cases.push(cube_case(&work, 0.0, 512, 384, true, args.quick)?);
+        cases.push(cube_case(0.0, 512, 384, true, args.quick)?);
     } else {
         for (name, lift) in [("cube_on_floor", 0.0), ("cube_lifted", 0.05)] {
             if wanted(name) {
-                cases.push(cube_case(&work, lift, 128, 96, false, args.quick)?);
+                cases.push(cube_case(lift, 128, 96, false, args.quick)?);
             }
         }
         if wanted("room_albedo_radiance") {

@@ -1,7 +1,7 @@
 //! Small scenes shared by the geometric gradient tests.
 
 use super::scene_from_json;
-use psdr::scene::Scene;
+use psdr::scene::{load_scene, Scene};
 
 /// A coloured, rotated box against a black background, lit from above.
 pub fn box_in_the_dark() -> Scene {
@@ -60,23 +60,13 @@ pub fn indirect_scene() -> Scene {
 }
 
 /// A flat-shaded coloured cube on the floor of a closed room under a ceiling light (the case where projective
-/// methods fail: creases between differently lit faces, and the contact edge with the floor).
+/// methods fail: creases between differently lit faces, and the contact edge with the floor): the shipped
+/// examples/cube_room (also bench_grad's scene) at 48x36 and 32 spp, the cube raised by `lift`.
 pub fn room_with_cube(lift: f32) -> Scene {
-    scene_from_json(
-        "room",
-        &format!(
-            r#"{{ "format": "psdr-scene", "version": 1,
-      "camera": {{ "origin": [0.4, 1.3, 2.2], "target": [0, 0.3, 0], "up": [0, 1, 0], "fov_y": 45, "width": 48, "height": 36 }},
-      "render": {{ "spp": 32, "max_depth": 3 }},
-      "materials": [ {{ "name": "wall", "albedo": 0.7, "specular": 0 }}, {{ "name": "blue", "albedo": [0.1, 0.3, 0.8], "specular": 0 }} ],
-      "shapes": [
-        {{ "name": "room", "type": "box", "size": [4, 2.6, 5], "inward": true, "material": "wall",
-           "transform": {{ "translation": [0, 1.3, 0] }} }},
-        {{ "name": "cube", "type": "box", "size": [0.5, 0.5, 0.5], "material": "blue",
-           "transform": {{ "translation": [0, {}, 0], "rotation_deg": [0, 30, 0] }} }},
-        {{ "name": "light", "type": "rectangle", "size": [1, 1], "material": "wall",
-           "transform": {{ "translation": [0, 2.59, 0], "rotation_deg": [90, 0, 0] }}, "emitter": {{ "radiance": 5 }} }} ] }}"#,
-            0.25 + lift
-        ),
-    )
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/cube_room/scene.json");
+    let mut s = load_scene(std::path::Path::new(path)).expect("examples/cube_room loads");
+    (s.camera.width, s.camera.height, s.settings.spp) = (48, 36, 32);
+    let cube = s.object_index("cube").expect("the example has a cube");
+    s.objects[cube].pose.translation.y += lift;
+    s
 }
