@@ -17,6 +17,9 @@ CONFIG (written by bench_grad):
                  and optionally its own "seeds" (e.g. fewer for slow integrators) and "weld": true (render a
                  copy of the scene whose PLY meshes have their vertices merged by position, see welded_scene)
     seeds        list of seeds (one timed iteration each)
+    interleave   optional true: before each timed iteration print {"event": "ready", "remaining": n} and wait
+                 for a line on stdin, so the caller can run its own iterations in between (both methods then
+                 see the same drift of the machine)
     fd           optional {"spp", "seeds": [..], "steps": {label: h}}: central differences of Mitsuba's own L2
                  loss (path tracer, same seed at +h and -h), a check of the parameter hookup and of how far
                  Mitsuba's gradient is from Mitsuba's own truth
@@ -217,6 +220,7 @@ def main():
                               "mean": a.mean(0).tolist(),
                               "std_err": (a.std(0, ddof=1) / np.sqrt(len(a))).tolist() if len(a) > 1 else None}),
                   flush=True)
+    remaining = sum(len(spec["spp"]) * len(spec.get("seeds", cfg["seeds"])) for spec in cfg["integrators"])
     for spec in cfg["integrators"]:
         name = spec["label"]
         props = {k: v for k, v in spec.items() if k not in ("label", "spp", "seeds", "weld")}
@@ -233,6 +237,10 @@ def main():
                 print(json.dumps({"event": "cold", "integrator": name, "spp": spp, "seconds": cold, "loss": loss,
                                   "grad": grads}), flush=True)
             for seed in spec.get("seeds", cfg["seeds"]):
+                if cfg.get("interleave"):
+                    print(json.dumps({"event": "ready", "remaining": remaining}), flush=True)
+                    sys.stdin.readline()
+                    remaining -= 1
                 secs, loss, grads = iteration(sc, st, integrator, target, spp, seed)
                 print(json.dumps({"event": "iteration", "integrator": name, "spp": spp, "seed": seed,
                                   "seconds": secs, "loss": loss, "grad": grads}), flush=True)

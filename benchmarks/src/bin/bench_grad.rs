@@ -17,10 +17,11 @@
 //! also (a) at 512x384, 16 spp.
 //!
 //! One psdr iteration = `GradientEvaluator::gradient` with one replica: its primal render (which gives the loss
-//! value and the adjoint) and the backward pass. psdr runs half its seeds before Mitsuba's runs and half after;
-//! its time is the slower of the two halves' best (drift of the shared machine cannot favour psdr), each half
-//! after an untimed warm-up iteration. One Mitsuba iteration = parameter update +
-//! `mi.render` + L2 + `dr.backward`, best over the seeds after a warm-up iteration (reported as cold).
+//! value and the adjoint) and the backward pass, or the fused pass for material and light parameters. One
+//! Mitsuba iteration = parameter update + `mi.render` + L2 + `dr.backward`. psdr's iterations run interleaved
+//! with Mitsuba's (a share of them before each Mitsuba iteration, its sweep points in order as Mitsuba's spp),
+//! so drift of the shared machine affects both alike; each method's time is its best over the seeds, after one
+//! untimed warm-up per sweep point (psdr) or timed-as-cold one per spp (Mitsuba).
 //! Relative error = |g - g_fd| / |g_fd| over the parameter's compared components, per seed; the CSV gives its
 //! mean and standard deviation over seeds and the error of the seed-averaged gradient (a bias indicator).
 
@@ -32,7 +33,7 @@ use psdr::render::SceneData;
 use psdr::scene::{load_scene, Scene};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Write as _};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Instant;
@@ -73,9 +74,6 @@ struct Case {
 struct Runs {
     grads: Vec<Vec<Vec<f64>>>,
     times: Vec<f64>,
-    /// psdr only: the best time of each timing epoch (before and after Mitsuba's runs); the reported time is
-    /// the slower of them, so drift of the machine during a case cannot favour psdr.
-    epochs: Vec<f64>,
     losses: Vec<f64>,
     cold: Option<f64>,
 }
@@ -293,43 +291,50 @@ fn truth(case: &Case, loss: &ImageLoss, p: &Param) -> anyhow::Result<Truth> {
     Ok(Truth { mean, se, low, secs })
 }
 
-/// psdr at one sweep point for seeds `seeds`, appended to `runs` as one timing epoch. Material and light
-/// cases keep one `GradientEvaluator` across seeds (their iterations move no geometry, so the BVH is built
-/// once, as in an optimiser's material stage); geometric cases rebuild every iteration (Mitsuba's parameter
-/// update rebuilds its acceleration structure for moved vertices, too).
-fn run_psdr(
-    case: &Case,
-    loss: &ImageLoss,
-    (spp, sppe, sppse): (u32, u32, u32),
-    seeds: std::ops::Range<u32>,
-    evaluator: &mut GradientEvaluator,
-    runs: &mut Runs,
-) -> anyhow::Result<()> {
-    let paths: Vec<ParamPath> = case.params.iter().map(|p| p.path.clone()).collect();
-    let opts = AdOptions { replicas: 1, edge_samples: sppe, secondary_edge_samples: sppse };
-    let mut best = f64::INFINITY;
-    // One untimed warm-up iteration per epoch, as Mitsuba gets one per integrator: the first iteration after
-    // another method ran pays page faults for its buffers (1.3-1.7 s of 6.5 s at 512x384).
-    let warm = |seed: u32, evaluator: &mut GradientEvaluator| -> anyhow::Result<()> {
-        let mut s = case.scene.clone();
-        (s.settings.spp, s.settings.seed) = (spp, seed * 7919 + 11);
-        evaluator.gradient(&s, &paths, loss, &opts, &mut CpuBackend)?;
-        Ok(())
-    };
-    if let Some(first) = seeds.clone().next() {
-        warm(first, evaluator)?;
+/// psdr's iterations of one case as a queue of jobs that `run_mitsuba` interleaves with Mitsuba's: per sweep
+/// point (in sweep order, as Mitsuba runs its spp in order) one untimed warm-up (Mitsuba gets one per spp
+/// group), then one timed iteration per seed. Material and light cases keep one `GradientEvaluator` per point
+/// (their iterations move no geometry, so the BVH is built once, as in an optimiser's material stage);
+/// geometric cases rebuild every iteration (Mitsuba's parameter update rebuilds its acceleration structure for
+/// moved vertices, too).
+struct PsdrQueue<'a> {
+    case: &'a Case,
+    loss: &'a ImageLoss,
+    /// (sweep point, seed; None for the warm-up).
+    jobs: std::collections::VecDeque<(usize, Option<u32>)>,
+    runs: Vec<Runs>,
+    evaluators: Vec<GradientEvaluator>,
+}
+
+impl<'a> PsdrQueue<'a> {
+    fn new(case: &'a Case, loss: &'a ImageLoss) -> Self {
+        let points = case.psdr_sweep.len();
+        let jobs = (0..points)
+            .flat_map(|p| std::iter::once((p, None)).chain((0..case.seeds).map(move |s| (p, Some(s)))))
+            .collect();
+        let runs = (0..points).map(|_| Runs::default()).collect();
+        let evaluators = (0..points).map(|_| GradientEvaluator::default()).collect();
+        PsdrQueue { case, loss, jobs, runs, evaluators }
     }
-    for seed in seeds {
+
+    fn run_one(&mut self) -> anyhow::Result<()> {
+        let Some((p, seed)) = self.jobs.pop_front() else { return Ok(()) };
+        let case = self.case;
+        let (spp, sppe, sppse) = case.psdr_sweep[p];
+        let paths: Vec<ParamPath> = case.params.iter().map(|p| p.path.clone()).collect();
+        let opts = AdOptions { replicas: 1, edge_samples: sppe, secondary_edge_samples: sppse };
         let mut s = case.scene.clone();
-        s.settings.spp = spp;
-        s.settings.seed = seed * 7919 + 11;
+        (s.settings.spp, s.settings.seed) = (spp, seed.unwrap_or(0) * 7919 + 11);
         if case.geometric {
-            *evaluator = GradientEvaluator::default();
+            self.evaluators[p] = GradientEvaluator::default();
         }
         let t = Instant::now();
-        let g = evaluator.gradient(&s, &paths, loss, &opts, &mut CpuBackend)?;
+        let g = self.evaluators[p].gradient(&s, &paths, self.loss, &opts, &mut CpuBackend)?;
         let secs = t.elapsed().as_secs_f64();
-        best = best.min(secs);
+        if seed.is_none() {
+            return Ok(());
+        }
+        let runs = &mut self.runs[p];
         runs.times.push(secs);
         runs.losses.push(g.loss.context("an L2 loss renders its primal")?);
         // Split the flat gradient per parameter and keep the compared components.
@@ -341,9 +346,23 @@ fn run_psdr(
             at += n;
         }
         runs.grads.push(per);
+        Ok(())
     }
-    runs.epochs.push(best);
-    Ok(())
+
+    /// Runs this queue's share of the work left while Mitsuba has `mitsuba_left` timed iterations to go.
+    fn run_share(&mut self, mitsuba_left: u64) -> anyhow::Result<()> {
+        for _ in 0..self.jobs.len().div_ceil(mitsuba_left.max(1) as usize) {
+            self.run_one()?;
+        }
+        Ok(())
+    }
+
+    fn run_rest(&mut self) -> anyhow::Result<()> {
+        while !self.jobs.is_empty() {
+            self.run_one()?;
+        }
+        Ok(())
+    }
 }
 
 fn write_f32(path: &Path, v: &[f32]) -> anyhow::Result<()> {
@@ -355,7 +374,14 @@ fn write_f32(path: &Path, v: &[f32]) -> anyhow::Result<()> {
 type MitsubaRuns = Vec<(String, u32, Runs)>;
 
 /// Runs mitsuba_grad.py on the exported case; returns its runs and the primal check.
-fn run_mitsuba(case: &Case, dir: &Path, reference: &[f32]) -> anyhow::Result<(MitsubaRuns, Value)> {
+/// Mitsuba's runs of `case`; before each of its timed iterations `between(timed iterations left)` runs (psdr's
+/// share of its own iterations), so both methods' timings spread over the same stretch of time.
+fn run_mitsuba(
+    case: &Case,
+    dir: &Path,
+    reference: &[f32],
+    between: &mut dyn FnMut(u64) -> anyhow::Result<()>,
+) -> anyhow::Result<(MitsubaRuns, Value)> {
     let bench = Path::new(env!("CARGO_MANIFEST_DIR"));
     let python = bench.join(".venv/bin/python");
     if !python.exists() {
@@ -371,7 +397,7 @@ fn run_mitsuba(case: &Case, dir: &Path, reference: &[f32]) -> anyhow::Result<(Mi
         "target": export_dir.join("target.f32"), "reference": export_dir.join("reference.f32"), "reference_spp": 256,
         "max_depth": case.scene.settings.max_depth, "rr_depth": case.scene.settings.rr_depth,
         "params": case.params.iter().map(|p| p.mitsuba.clone()).collect::<Vec<_>>(),
-        "integrators": case.mitsuba_integrators, "seeds": (0..case.seeds).collect::<Vec<_>>(),
+        "integrators": case.mitsuba_integrators, "seeds": (0..case.seeds).collect::<Vec<_>>(), "interleave": true,
     });
     let mut cfg = cfg;
     if let Some((spp, seeds)) = case.mitsuba_fd {
@@ -388,8 +414,10 @@ fn run_mitsuba(case: &Case, dir: &Path, reference: &[f32]) -> anyhow::Result<(Mi
         .arg(&cfg_path)
         .env("DRJIT_LIBLLVM_PATH", llvm)
         .stdout(Stdio::piped())
+        .stdin(Stdio::piped())
         .spawn()
         .context("starting mitsuba_grad.py")?;
+    let mut go = child.stdin.take().expect("piped");
     let mut out: MitsubaRuns = vec![];
     let mut primal = Value::Null;
     for line in BufReader::new(child.stdout.take().expect("piped")).lines() {
@@ -401,6 +429,12 @@ fn run_mitsuba(case: &Case, dir: &Path, reference: &[f32]) -> anyhow::Result<(Mi
             continue;
         };
         let event = v["event"].as_str().unwrap_or_default();
+        if event == "ready" {
+            between(v["remaining"].as_u64().unwrap_or(1))?;
+            writeln!(go, "go")?;
+            go.flush()?;
+            continue;
+        }
         if event == "primal_check" {
             println!("  mitsuba primal check: {v}");
             primal = v;
@@ -560,19 +594,12 @@ fn main() -> anyhow::Result<()> {
                 fmt_vec(&bias)
             );
         }
-        // psdr runs half its seeds before Mitsuba and half after (two timing epochs).
-        let half = case.seeds / 2;
-        let mut psdr_runs: Vec<(Runs, GradientEvaluator)> = vec![];
-        for &point in &case.psdr_sweep {
-            let (mut runs, mut evaluator) = (Runs::default(), GradientEvaluator::default());
-            run_psdr(case, &loss, point, 0..half, &mut evaluator, &mut runs)?;
-            psdr_runs.push((runs, evaluator));
-        }
+        let mut psdr = PsdrQueue::new(case, &loss);
         let (mut rows, mut mitsuba_rows) = (vec![], vec![]);
         let mut primal = Value::Null;
         if !args.no_mitsuba {
             let reference = render(&case.scene, 256, 4242)?;
-            let (m, pc) = run_mitsuba(case, &work, &reference)?;
+            let (m, pc) = run_mitsuba(case, &work, &reference, &mut |left| psdr.run_share(left))?;
             primal = pc;
             for (label, spp, runs) in m {
                 mitsuba_rows.push(Row {
@@ -586,12 +613,8 @@ fn main() -> anyhow::Result<()> {
                 });
             }
         }
-        for (&(spp, sppe, sppse), (mut runs, mut evaluator)) in case.psdr_sweep.iter().zip(psdr_runs) {
-            run_psdr(case, &loss, (spp, sppe, sppse), half..case.seeds, &mut evaluator, &mut runs)?;
-            println!(
-                "  psdr spp {spp} sppe {sppe} sppse {sppse}: best s/iter before Mitsuba {:.4}, after {:.4}",
-                runs.epochs[0], runs.epochs[1]
-            );
+        psdr.run_rest()?;
+        for (&(spp, sppe, sppse), runs) in case.psdr_sweep.iter().zip(psdr.runs) {
             let (sppe_s, sppse_s) =
                 if case.geometric { (sppe.to_string(), sppse.to_string()) } else { ("-".into(), "-".into()) };
             rows.push(Row {
@@ -651,11 +674,7 @@ fn main() -> anyhow::Result<()> {
                 let (lm, lsd) = mean_sd(&r.runs.losses);
                 // Every method's iteration includes its own primal render (the loss value); the forward column
                 // is kept empty for the CSV's earlier readers.
-                let grad = if r.runs.epochs.is_empty() {
-                    min(&r.runs.times)
-                } else {
-                    r.runs.epochs.iter().cloned().fold(0.0, f64::max)
-                };
+                let grad = min(&r.runs.times);
                 let iter = grad;
                 writeln!(
                     csv,
