@@ -58,6 +58,14 @@ pub fn emitter(le: Vec3) -> Option<Emitter> {
     Some(Emitter { radiance: le, two_sided: false })
 }
 
+/// The shipped example room at `width` x `height` and `spp`.
+pub fn example_room(width: u32, height: u32, spp: u32) -> Scene {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json");
+    let mut s = psdr::scene::load_scene(std::path::Path::new(path)).expect("example room loads");
+    (s.camera.width, s.camera.height, s.settings.spp) = (width, height, spp);
+    s
+}
+
 /// Renders on the CPU backend.
 pub fn render(scene: &Scene) -> Frame {
     let d = SceneData::build(scene).expect("scene builds");

@@ -10,16 +10,10 @@ use psdr::grad::{
     ADJOINT_SEED_OFFSET,
 };
 use psdr::render::{render_cpu, SceneData};
-use psdr::scene::{load_scene, Scene};
-use std::path::Path;
+use psdr::scene::Scene;
 
 fn room(width: u32, height: u32, spp: u32) -> Scene {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json");
-    let mut s = load_scene(Path::new(path)).expect("example room loads");
-    s.camera.width = width;
-    s.camera.height = height;
-    s.settings.spp = spp;
-    s
+    psdr_tests::example_room(width, height, spp)
 }
 
 /// A target image that differs from the render in both directions (a brighter and a darker half).

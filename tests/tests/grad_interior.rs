@@ -12,17 +12,11 @@ use psdr::grad::{
 };
 use psdr::render::{render_cpu, SceneData};
 use psdr::scene::{load_scene, Scene};
-use std::path::Path;
 
 const REPLICAS: u32 = 16;
 
 fn room(width: u32, height: u32, spp: u32) -> Scene {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json");
-    let mut s = load_scene(Path::new(path)).expect("example room loads");
-    s.camera.width = width;
-    s.camera.height = height;
-    s.settings.spp = spp;
-    s
+    psdr_tests::example_room(width, height, spp)
 }
 
 fn check_against_fd(scene: &Scene, path: &str, step: f32, components: &[usize]) {
