@@ -10,8 +10,10 @@
 //! each product of independent estimates, so E[G_p] = δ(E I_p) · E ∂I_p exactly (δ is affine). Per traced path
 //! this does the work of one `radiance_vjp` path, against two paths (primal + adjoint) before.
 //! Variance at equal spp: the first-order term gains 2 μ_δ μ_∂ Cov(I, ∂I)/spp (either sign) over the two-pass
-//! estimator and the second-order term doubles; at equal time (about 1.8x the spp) it is lower unless the
-//! first term dominates with a positive sign (benchmarks/README.md measures it).
+//! estimator, and the second-order term grows 2-4x (4x where I and ∂I are proportional, as at an emitter's
+//! silhouette); each half is also stratified on its own, which costs more where edges dominate. Measured on the
+//! example room (benchmarks/README.md): 1.4-1.9x the two-pass error per spp at 0.5-0.6x its time per iteration,
+//! so at equal time it is ahead at 4 and 64 spp and about even at 16.
 //! Memory: half a pixel's path records per thread (spp/2 x max_depth vertices), reused across pixels; nothing
 //! grows with the image.
 
