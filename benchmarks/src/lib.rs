@@ -1,1 +1,3 @@
-//! Shared helpers for benchmarks: CSV and SVG chart writers.
+//! Shared helpers for the benchmark binaries.
+
+pub mod mitsuba_runner;

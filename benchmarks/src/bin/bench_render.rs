@@ -14,12 +14,11 @@
 //!
 //! Writes benchmarks/results/render.csv and render.svg (seconds, log, against RMSE, log).
 
-use anyhow::{bail, Context};
 use psdr::output::{read_exr_rgb, write_exr_channels};
 use psdr::render::{render_cpu, Frame, SceneData};
 use psdr::scene::{load_scene, Scene};
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use psdr_benchmarks::mitsuba_runner::run_mitsuba;
+use std::path::Path;
 use std::time::Instant;
 
 const SIZES: [(u32, u32); 2] = [(256, 192), (512, 384)];
@@ -74,51 +73,6 @@ fn rel_l1(a: &[f32], r: &[f32]) -> f64 {
 fn channel_means(a: &[f32]) -> [f64; 3] {
     let n = (a.len() / 3) as f64;
     [0, 1, 2].map(|c| a.iter().skip(c).step_by(3).map(|&v| v as f64).sum::<f64>() / n)
-}
-
-struct MitsubaRun {
-    spp: u32,
-    cold_s: f64,
-    warm_s: Option<f64>,
-    image: PathBuf,
-}
-
-/// Exports `scene` at w x h and renders it with mitsuba_render.py at each spp.
-fn mitsuba(scene: &Scene, w: u32, h: u32, spps: &[u32], reps: usize, dir: &Path) -> anyhow::Result<Vec<MitsubaRun>> {
-    let bench = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let python = bench.join(".venv/bin/python");
-    if !python.exists() {
-        bail!("{} not found: run benchmarks/setup_mitsuba.sh first (or pass --no-mitsuba)", python.display());
-    }
-    let mut s = scene.clone();
-    (s.camera.width, s.camera.height) = (w, h);
-    let xml = psdr::export::mitsuba::export_mitsuba(&s, dir)?;
-    let llvm =
-        std::env::var("DRJIT_LIBLLVM_PATH").unwrap_or_else(|_| "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1".into());
-    let out = Command::new(&python)
-        .arg(bench.join("mitsuba_render.py"))
-        .arg(&xml)
-        .arg("--spp")
-        .args(spps.iter().map(|s| s.to_string()))
-        .args(["--reps", &reps.to_string(), "--out-dir"])
-        .arg(dir)
-        .env("DRJIT_LIBLLVM_PATH", llvm)
-        .output()
-        .context("running mitsuba_render.py")?;
-    if !out.status.success() {
-        bail!("mitsuba_render.py failed:\n{}", String::from_utf8_lossy(&out.stderr));
-    }
-    let mut runs = vec![];
-    for line in String::from_utf8_lossy(&out.stdout).lines().filter(|l| l.starts_with('{')) {
-        let v: serde_json::Value = serde_json::from_str(line)?;
-        runs.push(MitsubaRun {
-            spp: v["spp"].as_u64().context("spp")? as u32,
-            cold_s: v["cold_s"].as_f64().context("cold_s")?,
-            warm_s: v["warm_s"].as_f64(),
-            image: PathBuf::from(v["image"].as_str().context("image")?),
-        });
-    }
-    Ok(runs)
 }
 
 /// Primal render time against image error, psdr CPU against Mitsuba 3 LLVM (CSV + SVG under benchmarks/results).
@@ -191,7 +145,7 @@ fn main() -> anyhow::Result<()> {
             });
         }
         if with_mitsuba {
-            for run in mitsuba(&scene, w, h, &SPPS, reps, &work.join(format!("mitsuba_{w}x{h}")))? {
+            for run in run_mitsuba(&scene, w, h, &SPPS, reps, &work.join(format!("mitsuba_{w}x{h}")))? {
                 let (_, _, img) = read_exr_rgb(&run.image)?;
                 let r = reference_for(w);
                 rows.push(Row {
@@ -235,7 +189,7 @@ fn main() -> anyhow::Result<()> {
     // Agreement of the two renderers' converged images (256x192), next to psdr's own noise at that spp.
     if with_mitsuba {
         let (w, h) = SIZES[0];
-        let run = mitsuba(&scene, w, h, &[ref_spp], 0, &work.join(format!("mitsuba_{w}x{h}_agree")))?;
+        let run = run_mitsuba(&scene, w, h, &[ref_spp], 0, &work.join(format!("mitsuba_{w}x{h}_agree")))?;
         let (_, _, mts) = read_exr_rgb(&run[0].image)?;
         let (ours, _) = render(&scene, w, h, ref_spp, REF_SEED + 1)?;
         let r = &ref_small;
