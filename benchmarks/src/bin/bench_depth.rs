@@ -1,10 +1,10 @@
 //! Where the primal render time goes, path depth by path depth, psdr's CPU renderer against Mitsuba 3 LLVM:
-//! `cargo run -p psdr-benchmarks --release --bin bench_depth [-- --reps N --spp N --width W --height H]`
+//! `cargo run -p psdr-benchmarks --release --bin bench_depth [-- --scene S --reps N --rounds N --spp N --width W --height H]`
 //! (Mitsuba needs `benchmarks/setup_mitsuba.sh`).
 //!
-//! The example room is rendered with max depth 1 (camera rays and the emitters they see), 2 (plus direct
-//! lighting: one shadow ray and one BSDF-sampled ray per hit), 3, 4 and 5 (Russian roulette from depth 3, as the
-//! scene file says). Each depth is timed for both renderers in turn (psdr: a warm-up then the best of N;
+//! A scene (default: the example room) is rendered with max depth 1 (camera rays and the emitters they see), 2 (plus direct
+//! lighting: one shadow ray and one BSDF-sampled ray per hit), 3, 4 and 5 (Russian roulette as the scene file
+//! says). Each depth is timed for both renderers in turn (psdr: a warm-up then the best of N;
 //! Mitsuba: `mitsuba_render.py`'s best of N warm renders), and the whole sweep is repeated `rounds` times, each
 //! time keeping the best: the machine's speed drifts by 10-25 % over minutes, and the difference between
 //! consecutive depths (the cost of one more path vertex) is a difference of two such times. The ratios say
@@ -12,7 +12,8 @@
 //! Both render the same light transport: the image-mean ratio Mitsuba / psdr per depth is reported next to the
 //! times (at 16 spp and 512x384 its noise is about 0.1 %).
 //!
-//! Writes benchmarks/results/render_depth.csv and render_depth.svg (seconds against max depth).
+//! Writes benchmarks/results/render_depth_NAME.csv and .svg (seconds against max depth), NAME the scene file's
+//! folder (`room`, `cube_room`).
 
 use psdr::output::read_exr_rgb;
 use psdr::render::{render_cpu, Frame, SceneData};
@@ -25,6 +26,9 @@ const DEPTHS: [u32; 5] = [1, 2, 3, 4, 5];
 
 #[derive(clap::Parser)]
 struct Args {
+    /// Scene file, relative to the repository root.
+    #[arg(long, default_value = "examples/room/scene.json")]
+    scene: String,
     /// Timed repetitions per depth, renderer and round (best of).
     #[arg(long, default_value_t = 3)]
     reps: u32,
@@ -44,8 +48,9 @@ struct Row {
     psdr_s: f64,
     mitsuba_s: f64,
     psdr_rays: u64,
-    /// Mean over pixels and channels, Mitsuba's image over psdr's.
-    mean_ratio: f64,
+    /// Mean over pixels and channels, Mitsuba's image over psdr's, formatted ("" when psdr's image is black,
+    /// as at depth 1 when no emitter is in view).
+    mean_ratio: String,
 }
 
 fn render(scene: &Scene) -> anyhow::Result<(Frame, f64)> {
@@ -62,9 +67,11 @@ fn mean(v: &[f32]) -> f64 {
 fn main() -> anyhow::Result<()> {
     let a = <Args as clap::Parser>::parse();
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
-    let mut scene = load_scene(&root.join("examples/room/scene.json"))?;
+    let scene_path = root.join(&a.scene);
+    let name = scene_path.parent().and_then(|p| p.file_name()).map_or("scene".into(), |n| n.to_string_lossy());
+    let mut scene = load_scene(&scene_path)?;
     (scene.camera.width, scene.camera.height, scene.settings.spp) = (a.width, a.height, a.spp);
-    let work = root.join("out/bench_depth");
+    let work = root.join("out/bench_depth").join(&*name);
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
 
     let mut rows: Vec<Row> = vec![];
@@ -83,7 +90,8 @@ fn main() -> anyhow::Result<()> {
             println!("round {round} max depth {max_depth}: psdr {best:.3} s, Mitsuba {mitsuba_s:.3} s");
             if round == 0 {
                 let (_, _, img) = read_exr_rgb(&run.image)?;
-                let mean_ratio = mean(&img) / mean(&frame.radiance);
+                let psdr_mean = mean(&frame.radiance);
+                let mean_ratio = if psdr_mean > 0.0 { format!("{:.5}", mean(&img) / psdr_mean) } else { String::new() };
                 rows.push(Row { max_depth, psdr_s: best, mitsuba_s, psdr_rays: frame.rays, mean_ratio });
             } else {
                 rows[i].psdr_s = rows[i].psdr_s.min(best);
@@ -94,7 +102,7 @@ fn main() -> anyhow::Result<()> {
     for r in &rows {
         println!(
             "max depth {}: psdr {:.3} s ({:.2} rays/sample), Mitsuba {:.3} s, psdr / Mitsuba time {:.2}, \
-             image mean Mitsuba / psdr {:.4}",
+             image mean Mitsuba / psdr {}",
             r.max_depth,
             r.psdr_s,
             r.psdr_rays as f64 / (a.width * a.height * a.spp) as f64,
@@ -115,7 +123,7 @@ fn main() -> anyhow::Result<()> {
             _ => (r.psdr_s - rows[i - 1].psdr_s, r.mitsuba_s - rows[i - 1].mitsuba_s),
         };
         csv += &format!(
-            "{},{},{},{},{threads},{:.4},{:.4},{:.3},{:.3},{pl:.4},{ml:.4},{:.3},{:.5}\n",
+            "{},{},{},{},{threads},{:.4},{:.4},{:.3},{:.3},{pl:.4},{ml:.4},{:.3},{}\n",
             r.max_depth,
             a.width,
             a.height,
@@ -129,16 +137,16 @@ fn main() -> anyhow::Result<()> {
         );
     }
     print!("{csv}");
-    let out = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/render_depth.csv");
+    let out = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("results/render_depth_{name}.csv"));
     std::fs::create_dir_all(out.parent().unwrap())?;
     std::fs::write(&out, &csv)?;
-    std::fs::write(out.with_extension("svg"), chart(&rows, &a, threads))?;
+    std::fs::write(out.with_extension("svg"), chart(&rows, &a, &name, threads))?;
     println!("wrote {} and {}", out.display(), out.with_extension("svg").display());
     Ok(())
 }
 
 /// Seconds (linear) against max depth, one polyline per renderer, each psdr point labelled with psdr / Mitsuba.
-fn chart(rows: &[Row], a: &Args, threads: usize) -> String {
+fn chart(rows: &[Row], a: &Args, name: &str, threads: usize) -> String {
     let (x0, y0, pw, ph) = (70.0, 40.0, 480.0, 320.0);
     let ymax = rows.iter().fold(0.0f64, |m, r| m.max(r.psdr_s).max(r.mitsuba_s));
     let ymax = (ymax * 2.0).ceil() / 2.0;
@@ -147,7 +155,7 @@ fn chart(rows: &[Row], a: &Args, threads: usize) -> String {
     let mut s = format!(
         "<svg xmlns='http://www.w3.org/2000/svg' width='{}' height='{}' font-family='sans-serif' font-size='11'>\n\
          <rect width='100%' height='100%' fill='white'/>\n\
-         <text x='{x0}' y='20' font-size='13'>Example room {}x{}, {} spp: render time by max path depth ({threads} threads)</text>\n\
+         <text x='{x0}' y='20' font-size='13'>{name} {}x{}, {} spp: render time by max path depth ({threads} threads)</text>\n\
          <rect x='{x0}' y='{y0}' width='{pw}' height='{ph}' fill='none' stroke='#888'/>\n",
         x0 + pw + 150.0,
         y0 + ph + 50.0,
