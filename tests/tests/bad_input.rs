@@ -190,14 +190,21 @@ fn degenerate_triangles_render_finite() {
     assert!(f.radiance.iter().any(|&x| x > 0.0), "the lamp lights the mesh");
 }
 
-/// The binary, when cargo has built it next to this test (`cargo test --workspace` does): a missing scene exits
-/// non-zero and names the file.
-#[test]
-fn cli_render_of_a_missing_scene_fails_with_a_message() {
+/// The psdr binary, when cargo has built it next to this test (`cargo test --workspace` does).
+fn psdr_bin() -> Option<std::path::PathBuf> {
     let exe = std::env::current_exe().unwrap();
     let bin = exe.parent().and_then(Path::parent).map(|d| d.join(format!("psdr{}", std::env::consts::EXE_SUFFIX)));
-    let Some(bin) = bin.filter(|b| b.is_file()) else {
+    let bin = bin.filter(|b| b.is_file());
+    if bin.is_none() {
         eprintln!("skipped: the psdr binary is not built in this target dir (run cargo test --workspace)");
+    }
+    bin
+}
+
+/// A missing scene exits non-zero and names the file.
+#[test]
+fn cli_render_of_a_missing_scene_fails_with_a_message() {
+    let Some(bin) = psdr_bin() else {
         return;
     };
     let dir = temp_dir("bad-cli");
@@ -210,4 +217,31 @@ fn cli_render_of_a_missing_scene_fails_with_a_message() {
     assert!(!out.status.success(), "exit status {:?}", out.status);
     assert!(stderr.contains("missing.json"), "stderr: {stderr}");
     assert!(!dir.join("x.exr").exists(), "no output for a failed render");
+}
+
+/// `psdr grad` with one seed prints its estimates and says that there is no standard error (it printed
+/// "± NaN"), and zero seeds is rejected by name instead of silently running one.
+#[test]
+fn cli_grad_with_one_seed_prints_no_nan_and_zero_seeds_is_an_error() {
+    let Some(bin) = psdr_bin() else {
+        return;
+    };
+    let scene = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/cube_room/scene.json"));
+    let grad = |replicas: &str| {
+        std::process::Command::new(&bin)
+            .args(["grad", scene.to_str().unwrap(), "--param", "light/light/radiance", "--spp", "2"])
+            .args(["--replicas", replicas, "--fd", "0.5", "--component", "0"])
+            .output()
+            .unwrap()
+    };
+    let one = grad("1");
+    let stdout = String::from_utf8_lossy(&one.stdout);
+    assert!(one.status.success(), "stderr: {}", String::from_utf8_lossy(&one.stderr));
+    assert!(stdout.contains("AD +") && stdout.contains("FD +"), "stdout: {stdout}");
+    assert!(!stdout.to_lowercase().contains("nan"), "stdout: {stdout}");
+    assert!(stdout.contains("no standard error"), "stdout: {stdout}");
+    let zero = grad("0");
+    let stderr = String::from_utf8_lossy(&zero.stderr);
+    assert!(!zero.status.success());
+    assert!(stderr.contains("--replicas"), "stderr: {stderr}");
 }

@@ -30,7 +30,7 @@ pub struct GradArgs {
     #[arg(long)]
     fd: Option<f32>,
     /// Independent seeds for both estimates (a standard error needs at least 2).
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..))]
     replicas: u32,
     /// Only these components of the parameter (comma separated); default all.
     #[arg(long, value_delimiter = ',')]
@@ -102,14 +102,17 @@ pub fn run(a: GradArgs) -> anyhow::Result<()> {
         for (k, &c) in components.iter().enumerate() {
             let mut line = format!("d loss / d {param}[{c}]");
             match &ad {
-                Ok(g) if c < g.mean.len() => line += &format!("  AD {:+.6e} ± {:.2e}", g.mean[c], g.std_err[c]),
+                Ok(g) if c < g.mean.len() => line += &format!("  AD {:+.6e} ± {}", g.mean[c], std_err(g.std_err[c])),
                 Ok(_) => anyhow::bail!("{param}: component {c} does not exist"),
                 Err(_) => line += "  AD n/a",
             }
             if let Some((f, _)) = &fd {
-                line += &format!("  FD {:+.6e} ± {:.2e}", f.mean[k], f.std_err[k]);
+                line += &format!("  FD {:+.6e} ± {}", f.mean[k], std_err(f.std_err[k]));
             }
-            println!("{line}   (± 1 standard error over {} seeds)", a.replicas);
+            match a.replicas {
+                1 => println!("{line}   (one seed: no standard error; --replicas 2 or more gives one)"),
+                n => println!("{line}   (± 1 standard error over {n} seeds)"),
+            }
         }
         let (w, h, spp) = (scene.camera.width, scene.camera.height, scene.settings.spp);
         match &ad {
@@ -127,4 +130,13 @@ pub fn run(a: GradArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// A standard error for printing: "n/a" where one seed cannot give one.
+fn std_err(se: f64) -> String {
+    if se.is_finite() {
+        format!("{se:.2e}")
+    } else {
+        "n/a".into()
+    }
 }
