@@ -66,6 +66,10 @@ fn a_file_that_is_not_an_obj_or_an_image_is_an_error() {
         &scene_json(MAT, r#"{ "name": "e", "type": "obj", "file": "empty.obj", "material": "m" }"#),
     );
     assert!(e.contains("shapes[0] ('e').file") && e.contains("no triangles"), "{e}");
+    // A loss target that is not an EXR (a PNG, say) is named as such.
+    let png = write_file(&dir, "target.png", "\u{89}PNG this is not an exr");
+    let e = psdr::output::read_exr_rgb(&png).unwrap_err().to_string();
+    assert!(e.contains("target.png") && e.contains("not an OpenEXR file"), "{e}");
 }
 
 #[test]

@@ -26,7 +26,13 @@ pub type Channels = Vec<(String, Vec<f32>)>;
 
 /// (width, height, channels).
 pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Channels)> {
-    let image = read_all_flat_layers_from_file(path).map_err(|e| Error::io(path, e))?;
+    let image = read_all_flat_layers_from_file(path).map_err(|e| match e {
+        // The exr crate's words for a file without the EXR magic number ("file identifier missing").
+        exr::error::Error::Invalid(what) if what.contains("identifier") => {
+            Error::io(path, "not an OpenEXR file (a linear .exr is needed, e.g. from psdr render)")
+        }
+        e => Error::io(path, e),
+    })?;
     let layer = image.layer_data.first().ok_or_else(|| Error::io(path, "EXR has no layers"))?;
     let (w, h) = (layer.size.width() as u32, layer.size.height() as u32);
     let channels =
