@@ -1,10 +1,10 @@
 //! Where the primal render time goes, path depth by path depth, psdr's CPU renderer against Mitsuba 3 LLVM:
-//! `cargo run -p psdr-benchmarks --release --bin bench_depth [-- --scene S --reps N --rounds N --spp N --width W --height H]`
-//! (Mitsuba needs `benchmarks/setup_mitsuba.sh`).
+//! `cargo run -p psdr-benchmarks --release --bin bench_depth [-- --scene S --reps N --rounds N --spp N
+//! --width W --height H]` (Mitsuba needs `benchmarks/setup_mitsuba.sh`).
 //!
-//! A scene (default: the example room) is rendered with max depth 1 (camera rays and the emitters they see), 2 (plus direct
-//! lighting: one shadow ray and one BSDF-sampled ray per hit), 3, 4 and 5 (Russian roulette as the scene file
-//! says). Each depth is timed for both renderers in turn (psdr: a warm-up then the best of N;
+//! A scene (default: the example room) is rendered with max depth 1 (camera rays and the emitters they see),
+//! 2 (plus direct lighting: one shadow ray and one BSDF-sampled ray per hit), 3, 4 and 5 (Russian roulette as
+//! the scene file says). Each depth is timed for both renderers in turn (psdr: a warm-up then the best of N;
 //! Mitsuba: `mitsuba_render.py`'s best of N warm renders), and the whole sweep is repeated `rounds` times, each
 //! time keeping the best: the machine's speed drifts by 10-25 % over minutes, and the difference between
 //! consecutive depths (the cost of one more path vertex) is a difference of two such times. The ratios say
