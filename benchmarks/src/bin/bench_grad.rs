@@ -673,13 +673,18 @@ fn main() -> anyhow::Result<()> {
                     .map(|c| r.runs.grads.iter().map(|g| g[pi][c]).sum::<f64>() / n as f64)
                     .collect();
                 let (lm, lsd) = mean_sd(&r.runs.losses);
+                // A single run (Mitsuba's own FD) has no spread and no loss: empty fields, not NaN.
+                let finite = |x: f64, f: &dyn Fn(f64) -> String| if x.is_finite() { f(x) } else { String::new() };
+                let esd_s = finite(esd, &|x| format!("{x:.4e}"));
+                let lm_s = finite(lm, &|x| format!("{x:.6e}"));
+                let lse_s = finite(lsd / (r.runs.losses.len() as f64).sqrt(), &|x| format!("{x:.2e}"));
                 // Every method's iteration includes its own primal render (the loss value); the forward column
                 // is kept empty for the CSV's earlier readers.
                 let grad = min(&r.runs.times);
                 let iter = grad;
                 writeln!(
                     csv,
-                    "{},{},{},{},{},{},{},{n},{iter:.4},,{grad:.4},{},{em:.4e},{esd:.4e},{:.4e},{},{},{},{lm:.6e},{:.2e}",
+                    "{},{},{},{},{},{},{},{n},{iter:.4},,{grad:.4},{},{em:.4e},{esd_s},{:.4e},{},{},{},{lm_s},{lse_s}",
                     r.case,
                     r.size,
                     p.path,
@@ -692,17 +697,16 @@ fn main() -> anyhow::Result<()> {
                     fmt_vec(&gmean),
                     fmt_vec(&t.mean),
                     fmt_vec(&t.se),
-                    lsd / (r.runs.losses.len() as f64).sqrt()
                 )?;
                 println!(
-                    "  {:<34} {:<28} spp {:>3} sppe {:>6} sppse {:>2}: {iter:7.3} s/iter, rel err {:.3} ± {:.3} (of mean {:.3})",
+                    "  {:<34} {:<28} spp {:>3} sppe {:>6} sppse {:>2}: {iter:7.3} s/iter, rel err {:.3} ± {} (of mean {:.3})",
                     r.method,
                     p.path.to_string(),
                     r.spp,
                     r.sppe,
                     r.sppse,
                     em,
-                    esd,
+                    if esd.is_finite() { format!("{esd:.3}") } else { "n/a".into() },
                     rel_err(&gmean, &t.mean)
                 );
             }
