@@ -1,10 +1,9 @@
 //! Analytic (reverse-mode) gradient of an image loss, averaged over independent seeds with a standard error, so
 //! it can be compared with finite differences on equal terms.
 
-use super::aov_vjp::aov_vjp;
-use super::pose_velocity::PoseLayout;
-use super::radiance_pose_vjp::{radiance_pose_vjp, BoundarySamples};
-use super::{mean_and_std_err, radiance_vjp, radiance_vjp_cross, GradLayout, ImageLoss, Output, ParamPath};
+use super::output_adjoints::{moves_geometry, outputs_vjp, OutputAdjoints};
+use super::radiance_pose_vjp::BoundarySamples;
+use super::{mean_and_std_err, radiance_vjp_cross, GradLayout, ImageLoss, Output, ParamPath};
 use crate::backend::Backend;
 use crate::error::Result;
 use crate::render::{Frame, SceneData};
@@ -41,17 +40,6 @@ impl Default for AdOptions {
 /// estimates of the image and of its derivative (the same seed would bias the product).
 pub const ADJOINT_SEED_OFFSET: u32 = 0x9e37_79b9;
 
-fn is_pose(p: &ParamPath) -> bool {
-    matches!(
-        p,
-        ParamPath::Translation(_)
-            | ParamPath::Yaw(_)
-            | ParamPath::Rotation(_)
-            | ParamPath::Scale(_)
-            | ParamPath::Vertices(_)
-    )
-}
-
 /// dLoss/dθ of `params`, in their order: radiance losses w.r.t. lights, materials (interior term) and object
 /// poses and vertices (interior + primary, direct and indirect boundary terms); depth and mask losses w.r.t.
 /// poses and vertices
@@ -78,6 +66,16 @@ pub struct GradientEvaluator {
 }
 
 impl GradientEvaluator {
+    /// The scene buffers for `scene`: the previous call's, updated in place, or a fresh build. An optimiser
+    /// renders and differentiates each iteration's scene from these.
+    pub fn prepare(&mut self, scene: &Scene) -> Result<&SceneData> {
+        let data = match self.data.take() {
+            Some(previous) => previous.rebuild(scene)?,
+            None => SceneData::build(scene)?,
+        };
+        Ok(self.data.insert(data))
+    }
+
     pub fn gradient(
         &mut self,
         scene: &Scene,
@@ -104,20 +102,18 @@ fn gradient_on(
     opts: &AdOptions,
     backend: &mut dyn Backend,
 ) -> Result<AdEstimate> {
-    let (pose_params, other): (Vec<ParamPath>, Vec<ParamPath>) = params.iter().cloned().partition(is_pose);
+    let (pose_params, other): (Vec<ParamPath>, Vec<ParamPath>) = params.iter().cloned().partition(moves_geometry);
     let material = GradLayout::new(scene, &other)?;
-    let pose = PoseLayout::new(scene, &pose_params)?;
     let radiance = matches!(loss.output(), Output::Radiance);
-    let boundary = BoundarySamples {
-        primary: opts.edge_samples,
-        secondary: if radiance { opts.secondary_edge_samples } else { 0 },
-    };
+    let boundary = BoundarySamples { primary: opts.edge_samples, secondary: opts.secondary_edge_samples };
     let (mut runs, mut losses) = (vec![], vec![]);
     for r in 0..opts.replicas.max(1) {
         let mut settings = scene.settings.clone();
         settings.seed = scene.settings.seed.wrapping_add(r);
         // An L2 radiance loss of material and light parameters: one fused pass (see cross_adjoint.rs).
-        if let (true, 0, true, Some(pixelwise)) = (radiance, pose.len, settings.spp >= 2, loss.pixelwise()) {
+        if let (true, true, true, Some(pixelwise)) =
+            (radiance, pose_params.is_empty(), settings.spp >= 2, loss.pixelwise())
+        {
             let seed_b = settings.seed.wrapping_add(ADJOINT_SEED_OFFSET);
             let (g, image) = radiance_vjp_cross(data, &settings, &material, &pixelwise, seed_b)?;
             losses.push(pixelwise.loss(&image));
@@ -132,24 +128,12 @@ fn gradient_on(
             loss.adjoint(&blank_frame(scene))?
         };
         settings.seed = settings.seed.wrapping_add(ADJOINT_SEED_OFFSET);
-        let g_material = match (radiance, material.len) {
-            (true, n) if n > 0 => radiance_vjp(data, &settings, &material, &adjoint)?,
-            _ => vec![0.0; material.len],
+        let adjoints = match loss.output() {
+            Output::Radiance => OutputAdjoints { radiance: Some(adjoint), ..Default::default() },
+            Output::Depth => OutputAdjoints { depth: Some(adjoint), ..Default::default() },
+            Output::Mask(o) => OutputAdjoints { masks: vec![(*o, adjoint)], ..Default::default() },
         };
-        let g_pose = match (radiance, pose.len) {
-            (_, 0) => vec![],
-            (true, _) => radiance_pose_vjp(scene, data, &settings, &pose, &adjoint, boundary)?,
-            (false, _) => aov_vjp(scene, data, &settings, &pose, loss.output(), &adjoint, opts.edge_samples)?,
-        };
-        // Back to the caller's parameter order.
-        let (mut gm, mut gp) = (g_material.into_iter(), g_pose.into_iter());
-        let mut g = vec![];
-        for p in params {
-            let n = p.get(scene)?.len();
-            let src: &mut dyn Iterator<Item = f64> = if is_pose(p) { &mut gp } else { &mut gm };
-            g.extend(src.take(n));
-        }
-        runs.push(g);
+        runs.push(outputs_vjp(scene, data, &settings, params, &adjoints, boundary)?);
     }
     let len = runs[0].len();
     let (mut mean, mut std_err) = (vec![], vec![]);

@@ -7,7 +7,7 @@
 //! away from: when the edge moves along +n, the f⁻ region grows.
 
 use super::pose_velocity::PoseLayout;
-use super::primary_edges::{primary_boundary, PixelAdjoint, PrimaryEdges};
+use super::primary_edges::{primary_boundary_weighted, PrimaryEdges, SIDE_EPS};
 use super::Output;
 use super::{accumulate_blocks, check_adjoint};
 use crate::error::{Error, Result};
@@ -19,17 +19,21 @@ use crate::render::SceneData;
 use crate::scene::{RenderSettings, Scene};
 use glam::Vec3;
 
-/// The value an AOV takes along the camera ray through image point (x, y), and what it hit.
-fn aov_along(d: &SceneData, output: &Output, x: f32, y: f32) -> f32 {
+/// What the camera ray through image point (x, y) sees: its depth and the object it hits (None: nothing).
+fn seen_along(d: &SceneData, x: f32, y: f32) -> (f32, Option<u32>) {
     let dir = camera_ray(&d.camera, x, y);
     match trace_closest(&d.nodes, &d.triangles, Vec3::from(d.camera.origin), dir, f32::INFINITY) {
-        None => 0.0,
-        Some(h) => match output {
-            Output::Depth => h.t * dir.dot(Vec3::from(d.camera.forward)),
-            Output::Mask(o) => (d.triangles[h.triangle as usize].object == *o as u32) as u32 as f32,
-            Output::Radiance => unreachable!("radiance goes through radiance_vjp"),
-        },
+        None => (0.0, None),
+        Some(h) => (h.t * dir.dot(Vec3::from(d.camera.forward)), Some(d.triangles[h.triangle as usize].object)),
     }
+}
+
+/// dLoss/d(AOV) images of one loss: the depth's (w·h values) and any number of objects' coverage masks'.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct AovAdjoints<'a> {
+    pub depth: Option<&'a [f32]>,
+    /// (object index, adjoint of its mask).
+    pub masks: &'a [(usize, &'a [f32])],
 }
 
 /// dLoss/dθ for the pose entries of `pose`, given dLoss/d(AOV) per pixel (`adjoint`, w·h values).
@@ -42,14 +46,52 @@ pub fn aov_vjp(
     adjoint: &[f32],
     edge_samples: u32,
 ) -> Result<Vec<f64>> {
+    let masks;
+    let adjoints = match output {
+        Output::Radiance => {
+            return Err(Error::Invalid("aov_vjp differentiates depth and masks; radiance has its own adjoint".into()))
+        }
+        Output::Depth => AovAdjoints { depth: Some(adjoint), masks: &[] },
+        Output::Mask(o) => {
+            masks = [(*o, adjoint)];
+            AovAdjoints { depth: None, masks: &masks }
+        }
+    };
+    aovs_vjp(scene, d, settings, pose, &adjoints, edge_samples)
+}
+
+/// dLoss/dθ for a loss that reads depth and several masks at once: one depth interior pass and one set of
+/// silhouette samples whose two side rays serve every output (the jump of each output is weighted by its own
+/// adjoint at the sample's pixel).
+pub fn aovs_vjp(
+    scene: &Scene,
+    d: &SceneData,
+    settings: &RenderSettings,
+    pose: &PoseLayout,
+    adjoints: &AovAdjoints,
+    edge_samples: u32,
+) -> Result<Vec<f64>> {
     let (w, h) = (d.camera.width as usize, d.camera.height as usize);
-    if matches!(output, Output::Radiance) {
-        return Err(Error::Invalid("aov_vjp differentiates depth and masks; radiance has its own adjoint".into()));
+    if let Some(a) = adjoints.depth {
+        check_adjoint(a, w * h)?;
     }
-    check_adjoint(adjoint, w * h)?;
-    let mut grad = boundary(scene, d, settings, pose, output, adjoint, edge_samples);
-    if matches!(output, Output::Depth) {
-        let interior = depth_interior(d, settings, pose, adjoint);
+    let mut of_object: Vec<Option<&[f32]>> = vec![None; scene.objects.len()];
+    for &(o, a) in adjoints.masks {
+        if o >= scene.objects.len() {
+            return Err(Error::Invalid(format!("mask of object {o}: the scene has {}", scene.objects.len())));
+        }
+        if of_object[o].is_some() {
+            return Err(Error::Invalid(format!("two adjoints given for the mask of object {o}")));
+        }
+        check_adjoint(a, w * h)?;
+        of_object[o] = Some(a);
+    }
+    if adjoints.depth.is_none() && adjoints.masks.is_empty() {
+        return Ok(vec![0.0; pose.len]);
+    }
+    let mut grad = boundary(scene, d, settings, pose, adjoints.depth, &of_object, edge_samples);
+    if let Some(a) = adjoints.depth {
+        let interior = depth_interior(d, settings, pose, a);
         grad.iter_mut().zip(interior).for_each(|(g, r)| *g += r);
     }
     Ok(grad)
@@ -106,18 +148,28 @@ fn boundary(
     d: &SceneData,
     settings: &RenderSettings,
     pose: &PoseLayout,
-    output: &Output,
-    adjoint: &[f32],
+    depth: Option<&[f32]>,
+    masks: &[Option<&[f32]>],
     edge_samples: u32,
 ) -> Vec<f64> {
     let edges = PrimaryEdges::build(scene, &d.camera, false, |o| pose.moves(o));
-    primary_boundary(
-        d,
-        settings.seed,
-        pose,
-        &edges,
-        PixelAdjoint { values: adjoint, channels: 1 },
-        edge_samples,
-        |x, y, _| Vec3::new(aov_along(d, output, x, y), 0.0, 0.0),
-    )
+    primary_boundary_weighted(d, settings.seed, pose, &edges, edge_samples, |pixel, [x, y], [nx, ny], _| {
+        let (inner, outer) =
+            (seen_along(d, x - nx * SIDE_EPS, y - ny * SIDE_EPS), seen_along(d, x + nx * SIDE_EPS, y + ny * SIDE_EPS));
+        let mut jump = 0.0;
+        if let Some(a) = depth {
+            jump += a[pixel] * (inner.0 - outer.0);
+        }
+        // Only the masks of the objects seen on either side jump.
+        let mut mask_jump = |object: Option<u32>, sign: f32| {
+            if let Some(&Some(a)) = object.and_then(|o| masks.get(o as usize)) {
+                jump += a[pixel] * sign;
+            }
+        };
+        if inner.1 != outer.1 {
+            mask_jump(inner.1, 1.0);
+            mask_jump(outer.1, -1.0);
+        }
+        jump
+    })
 }

@@ -194,6 +194,33 @@ pub fn primary_boundary<F>(
 where
     F: Fn(f32, f32, &Sampler) -> Vec3 + Sync,
 {
+    primary_boundary_weighted(d, seed, pose, edges, edge_samples, |pixel, [x, y], [nx, ny], s| {
+        let i = pixel * adjoint.channels;
+        let mut delta = Vec3::ZERO;
+        for (ch, a) in adjoint.values[i..i + adjoint.channels].iter().enumerate() {
+            delta[ch] = *a;
+        }
+        if delta == Vec3::ZERO {
+            return 0.0;
+        }
+        delta.dot(side(x - nx * SIDE_EPS, y - ny * SIDE_EPS, s) - side(x + nx * SIDE_EPS, y + ny * SIDE_EPS, s))
+    })
+}
+
+/// The primary boundary term with the adjoint-weighted jump supplied by the caller:
+/// `weighted_jump(pixel, y, n, sampler)` = Σ_outputs adjoint(pixel) · [f(y − εn) − f(y + εn)], so several
+/// outputs read by one loss (depth and the masks of many objects) share one set of edge samples and rays.
+pub fn primary_boundary_weighted<F>(
+    d: &SceneData,
+    seed: u32,
+    pose: &PoseLayout,
+    edges: &PrimaryEdges,
+    edge_samples: u32,
+    weighted_jump: F,
+) -> Vec<f64>
+where
+    F: Fn(usize, [f32; 2], [f32; 2], &Sampler) -> f32 + Sync,
+{
     if edges.edges.is_empty() || edge_samples == 0 {
         return vec![0.0; pose.len];
     }
@@ -207,21 +234,14 @@ where
             if !(x >= 0.0 && y >= 0.0 && x < w && y < h) {
                 continue;
             }
-            let i = (y as u32 * d.camera.width + x as u32) as usize * adjoint.channels;
-            let mut delta = Vec3::ZERO;
-            for (ch, a) in adjoint.values[i..i + adjoint.channels].iter().enumerate() {
-                delta[ch] = *a;
-            }
-            if delta == Vec3::ZERO {
+            let pixel = (y as u32 * d.camera.width + x as u32) as usize;
+            let jump = weighted_jump(pixel, es.y, es.n, &s);
+            if jump == 0.0 {
                 continue;
             }
             let [nx, ny] = es.n;
-            let jump = side(x - nx * SIDE_EPS, y - ny * SIDE_EPS, &s) - side(x + nx * SIDE_EPS, y + ny * SIDE_EPS, &s);
-            if jump == Vec3::ZERO {
-                continue;
-            }
             let edge = &edges.edges[es.edge];
-            let weight = delta.dot(jump) / (es.pdf * edge_samples as f32);
+            let weight = jump / (es.pdf * edge_samples as f32);
             let site = edge.site(es.x);
             moving.clear();
             pose.entries_moving(edge.object, &edge.ends, &mut moving);

@@ -1,5 +1,6 @@
 //! A rendered frame: radiance and the AOVs, all averaged over the pixel's samples except the id AOV.
 
+use crate::error::{Error, Result};
 use glam::Vec3;
 
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -45,4 +46,35 @@ impl Frame {
             .iter()
             .all(|v| v.iter().all(|x| x.is_finite()))
     }
+}
+
+/// Bytes a frame of this size takes: radiance, normal and albedo (3 floats), depth and id (1 each) and one
+/// coverage float per object, per pixel.
+pub fn frame_bytes(width: u32, height: u32, objects: usize) -> u128 {
+    width as u128 * height as u128 * (11 + objects as u128) * 4
+}
+
+/// Refuses a frame that cannot fit in memory before anything is allocated (a 100000 x 100000 camera would
+/// otherwise abort the process on a failed allocation). The budget is the memory the system reports
+/// available, with room for the renderer's per-thread buffers and a loss's copies of the image.
+pub fn check_frame_memory(width: u32, height: u32, objects: usize) -> Result<()> {
+    let need = frame_bytes(width, height, objects) * 3;
+    let available = available_memory().unwrap_or(16 << 30) as u128;
+    if need > available {
+        return Err(Error::Invalid(format!(
+            "a {width}x{height} frame with {objects} objects needs about {:.1} GiB (frame, loss and gradient \
+             buffers); {:.1} GiB is available: lower the camera's resolution",
+            need as f64 / (1u64 << 30) as f64,
+            available as f64 / (1u64 << 30) as f64
+        )));
+    }
+    Ok(())
+}
+
+/// MemAvailable from /proc/meminfo (Linux), in bytes.
+fn available_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }

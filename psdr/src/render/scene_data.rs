@@ -38,6 +38,7 @@ pub fn luminance(c: Vec3) -> f32 {
 
 impl SceneData {
     pub fn build(scene: &Scene) -> Result<SceneData> {
+        crate::render::frame::check_frame_memory(scene.camera.width, scene.camera.height, scene.objects.len())?;
         Self::build_over(scene, None)
     }
 
@@ -46,6 +47,7 @@ impl SceneData {
     /// and the triangle order are reused instead of rebuilt; the result is identical to `build(scene)` either
     /// way. An optimiser's material and light stages call this once per iteration.
     pub fn rebuild(&self, scene: &Scene) -> Result<SceneData> {
+        crate::render::frame::check_frame_memory(scene.camera.width, scene.camera.height, scene.objects.len())?;
         Self::build_over(scene, Some(self))
     }
 
