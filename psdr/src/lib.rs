@@ -9,8 +9,12 @@ pub mod cli;
 pub mod error;
 pub mod export;
 pub mod grad;
+pub mod loss;
+pub mod optim;
 pub mod output;
 pub mod render;
+pub mod report;
 pub mod scene;
+pub mod script;
 
 pub use error::{Error, Result};

@@ -4,6 +4,7 @@ mod export_cmd;
 mod grad_cmd;
 mod materials_cmd;
 mod render_cmd;
+mod run_cmd;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -27,6 +28,8 @@ enum Command {
     Export(export_cmd::ExportArgs),
     /// Gradient of an image loss with respect to one scene parameter.
     Grad(grad_cmd::GradArgs),
+    /// Run a stage script (Rhai) on a photo: optimisation stages, checkpoints, result.json, report.html.
+    Run(run_cmd::RunArgs),
     /// The procedural material library: list, render maps, contact sheet.
     Materials(materials_cmd::MaterialsArgs),
 }
@@ -38,6 +41,7 @@ pub fn main() -> ExitCode {
         Command::Export(a) => export_cmd::run(a),
         Command::Materials(a) => materials_cmd::run(a),
         Command::Grad(a) => grad_cmd::run(a),
+        Command::Run(a) => run_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -9,6 +9,7 @@ mod mesh;
 mod obj;
 mod pose;
 mod primitives;
+mod save;
 mod texture;
 pub mod validate;
 mod weld;
@@ -19,6 +20,7 @@ pub use material::{Color, Material, Scalar, UvTransform};
 pub use mesh::{Emitter, MeshPart, Object};
 pub use pose::Pose;
 pub use primitives::{box_mesh, rectangle_mesh, sphere_mesh};
+pub use save::save_scene;
 pub use weld::{weld, Welding};
 
 pub use texture::{linear_to_srgb as texture_linear_to_srgb, srgb_to_linear, Texture, TextureEncoding};

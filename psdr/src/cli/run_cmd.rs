@@ -1,0 +1,65 @@
+//! `psdr run SCRIPT PHOTO [-o DIR] [--set key=value]... [--from STAGE] [--resume]`: runs a Rhai stage script.
+
+use crate::backend::{create_backend_on, BackendKind};
+use crate::script::{run_script, RunOptions, ScriptRun};
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct RunArgs {
+    /// The stage script (Rhai), e.g. scripts/fit.rhai.
+    script: PathBuf,
+    /// The photo to fit (PNG, JPEG or EXR); the script sees its path as PHOTO.
+    photo: PathBuf,
+    /// Output folder: stages/NN_name/ per stage, result.json, report.html, scene.json.
+    #[arg(short, long, default_value = "out")]
+    output: PathBuf,
+    /// Override a top-level variable of the script (`let iters = 200;` -> --set iters=50). Repeatable.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Load the finished stages before this one (name or number) from DIR and run from it on.
+    #[arg(long)]
+    from: Option<String>,
+    /// Continue an interrupted run in DIR: finished stages are loaded, an unfinished optimisation continues
+    /// from its last checkpoint (same result as an uninterrupted run).
+    #[arg(long)]
+    resume: bool,
+    /// Render backend for the primal renders.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// GPU to render on (vk backend), a part of its name.
+    #[arg(long)]
+    device: Option<String>,
+    /// Samples per pixel of each stage's preview render.
+    #[arg(long, default_value_t = 16)]
+    preview_spp: u32,
+    /// No progress bars or log lines.
+    #[arg(long)]
+    quiet: bool,
+}
+
+pub fn run(a: RunArgs) -> anyhow::Result<()> {
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let backend = create_backend_on(a.backend, a.device.as_deref())?;
+    let summary = run_script(
+        ScriptRun {
+            script: a.script,
+            photo: a.photo,
+            out: a.output.clone(),
+            sets: a.set,
+            options: RunOptions { resume: a.resume, from_stage: a.from, quiet: a.quiet, preview_spp: a.preview_spp },
+            command,
+        },
+        backend,
+    )?;
+    if !a.quiet {
+        eprintln!(
+            "{} stage(s) in {:.1} s; {}report: {}",
+            summary.stages,
+            summary.seconds,
+            summary.scene.map(|p| format!("scene: {}; ", p.display())).unwrap_or_default(),
+            a.output.join("report.html").display()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,223 @@
+//! How each optimised parameter maps from the unconstrained vector Adam moves (u) to the scene value (θ):
+//! constraints are expressed by parametrisation and projection, never by penalties a user must tune.
+//! - `Linear`: θ = u, clamped into [lower, upper] after each step (albedo in [0, 1], roughness in [0.02, 1]).
+//! - `Log`: θ = exp(u) per component: positive, and steps are relative (radiance, scale, uv scale).
+//! - `UniformLog`: θ = θ₀ · exp(u) with one u for all components (uniform scale keeps an object's proportions).
+//! - `free`: components that may move; the others keep their start value (translation `free: "xz"` moves an
+//!   object in the floor plane only, so one standing on the floor keeps its height).
+
+use crate::error::{Error, Result};
+use crate::grad::{ParamPath, TextureSlot};
+use crate::scene::Scene;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Space {
+    Linear,
+    Log,
+    UniformLog,
+}
+
+/// Learning-rate schedule: the factor applied to a group's rate at iteration t of T.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum Schedule {
+    Constant,
+    /// gamma^t.
+    Exponential {
+        gamma: f64,
+    },
+    /// gamma^floor(t / every).
+    Step {
+        every: usize,
+        gamma: f64,
+    },
+    /// Cosine from 1 down to `min` at the last iteration.
+    Cosine {
+        min: f64,
+    },
+}
+
+impl Schedule {
+    pub fn factor(&self, t: usize, iters: usize) -> f64 {
+        match *self {
+            Schedule::Constant => 1.0,
+            Schedule::Exponential { gamma } => gamma.powi(t as i32),
+            Schedule::Step { every, gamma } => gamma.powi((t / every.max(1)) as i32),
+            Schedule::Cosine { min } => {
+                let x = t as f64 / (iters.max(2) - 1) as f64;
+                min + (1.0 - min) * 0.5 * (1.0 + (std::f64::consts::PI * x.min(1.0)).cos())
+            }
+        }
+    }
+}
+
+/// One optimised parameter: its path, parametrisation, bounds, rate and schedule.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParamSpec {
+    #[serde(with = "path_text")]
+    pub path: ParamPath,
+    pub space: Space,
+    /// Per component of θ: may it move.
+    pub free: Vec<bool>,
+    /// Bounds of every θ component (the projection after each step).
+    pub lower: f32,
+    pub upper: f32,
+    pub lr: f64,
+    pub schedule: Schedule,
+    /// θ when the spec was made: the value of locked components, and θ₀ of `UniformLog`.
+    pub start: Vec<f32>,
+}
+
+/// Serialises a parameter path as its text.
+mod path_text {
+    use crate::grad::ParamPath;
+    use serde::{Deserialize, Deserializer, Serializer};
+    pub fn serialize<S: Serializer>(p: &ParamPath, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&p.to_string())
+    }
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ParamPath, D::Error> {
+        String::deserialize(d)?.parse().map_err(serde::de::Error::custom)
+    }
+}
+
+/// Defaults per kind of parameter: (space, lower, upper, learning rate). Rates are per Adam step in u's units:
+/// metres, radians and degrees for linear poses and uv rotation, relative change for log spaces.
+pub fn defaults(path: &ParamPath) -> (Space, f32, f32, f64) {
+    use ParamPath::*;
+    let inf = f32::INFINITY;
+    match path {
+        LightRadiance(_) => (Space::Log, 1e-6, inf, 0.05),
+        MaterialAlbedo(_) => (Space::Linear, 0.0, 1.0, 0.02),
+        MaterialRoughness(_) => (Space::Linear, 0.02, 1.0, 0.02),
+        MaterialSpecular(_) => (Space::Linear, 0.0, 1.0, 0.02),
+        MaterialTexel { slot: TextureSlot::Roughness, .. } => (Space::Linear, 0.02, 1.0, 0.02),
+        MaterialTexel { .. } => (Space::Linear, 0.0, 1.0, 0.02),
+        UvScale(_) => (Space::Log, 1e-3, 1e3, 0.02),
+        UvRotation(_) => (Space::Linear, -inf, inf, 1.0),
+        Translation(_) => (Space::Linear, -inf, inf, 0.01),
+        Yaw(_) | Rotation(_) => (Space::Linear, -inf, inf, 0.02),
+        Scale(_) => (Space::Log, 1e-3, 1e3, 0.02),
+        Vertices(_) => (Space::Linear, -inf, inf, 0.002),
+    }
+}
+
+impl ParamSpec {
+    /// The default spec of `path` at the scene's current value.
+    pub fn new(scene: &Scene, path: ParamPath) -> Result<ParamSpec> {
+        let start = path.get(scene)?;
+        let (space, lower, upper, lr) = defaults(&path);
+        Ok(ParamSpec {
+            free: vec![true; start.len()],
+            path,
+            space,
+            lower,
+            upper,
+            lr,
+            schedule: Schedule::Constant,
+            start,
+        })
+    }
+
+    /// Parses a free-component spec: "xz" (3-vectors), "xyz", or one letter per component of r/g/b; all other
+    /// parameters take a list of booleans through `free` directly.
+    pub fn set_free_axes(&mut self, axes: &str) -> Result<()> {
+        let names = ['x', 'y', 'z'];
+        if self.start.len() != 3 || axes.is_empty() || !axes.chars().all(|c| names.contains(&c)) {
+            return Err(Error::Invalid(format!(
+                "{}: free axes '{axes}' must be letters of xyz, for a 3-vector parameter",
+                self.path
+            )));
+        }
+        self.free = names.iter().map(|c| axes.contains(*c)).collect();
+        Ok(())
+    }
+
+    /// Checks the spec is usable: sensible bounds, a positive rate, log spaces with positive values.
+    pub fn check(&self) -> Result<()> {
+        let bad = |m: String| Err(Error::Invalid(format!("{}: {m}", self.path)));
+        if !(self.lr.is_finite() && self.lr > 0.0) {
+            return bad(format!("learning rate {} must be positive and finite", self.lr));
+        }
+        if self.lower.is_nan() || self.upper.is_nan() || self.lower > self.upper {
+            return bad(format!("bounds [{}, {}] are empty", self.lower, self.upper));
+        }
+        if self.space != Space::Linear && self.start.iter().any(|&v| v <= 0.0) {
+            return bad(format!("a log parametrisation needs positive values, the start is {:?}", self.start));
+        }
+        if self.free.len() != self.start.len() {
+            return bad(format!("free has {} entries for {} components", self.free.len(), self.start.len()));
+        }
+        Ok(())
+    }
+
+    /// Length of u.
+    pub fn dims(&self) -> usize {
+        match self.space {
+            Space::UniformLog => 1,
+            _ => self.start.len(),
+        }
+    }
+
+    /// u for a scene value θ.
+    pub fn to_u(&self, theta: &[f32]) -> Vec<f64> {
+        match self.space {
+            Space::Linear => theta.iter().map(|&v| v as f64).collect(),
+            Space::Log => theta.iter().map(|&v| (v.max(1e-30) as f64).ln()).collect(),
+            Space::UniformLog => {
+                // Mean log ratio to the start: exact when θ is a multiple of θ₀.
+                let n = theta.len().max(1) as f64;
+                vec![
+                    theta.iter().zip(&self.start).map(|(&t, &s)| (t as f64 / s as f64).max(1e-30).ln()).sum::<f64>()
+                        / n,
+                ]
+            }
+        }
+    }
+
+    /// θ for u (locked components keep their start value).
+    pub fn to_theta(&self, u: &[f64]) -> Vec<f32> {
+        let mut theta: Vec<f32> = match self.space {
+            Space::Linear => u.iter().map(|&v| v as f32).collect(),
+            Space::Log => u.iter().map(|&v| v.exp() as f32).collect(),
+            Space::UniformLog => self.start.iter().map(|&s| (s as f64 * u[0].exp()) as f32).collect(),
+        };
+        for (i, t) in theta.iter_mut().enumerate() {
+            if !self.free[i] {
+                *t = self.start[i];
+            }
+        }
+        theta
+    }
+
+    /// dL/du from dL/dθ at θ (the chain rule of `to_theta`); locked components contribute nothing.
+    pub fn grad_u(&self, theta: &[f32], g_theta: &[f64]) -> Vec<f64> {
+        let g = |i: usize| if self.free[i] { g_theta[i] } else { 0.0 };
+        match self.space {
+            Space::Linear => (0..theta.len()).map(g).collect(),
+            Space::Log => (0..theta.len()).map(|i| g(i) * theta[i] as f64).collect(),
+            Space::UniformLog => vec![(0..theta.len()).map(|i| g(i) * theta[i] as f64).sum()],
+        }
+    }
+
+    /// Projects u so that every θ component lies in [lower, upper].
+    pub fn project(&self, u: &mut [f64]) {
+        let (lo, hi) = (self.lower as f64, self.upper as f64);
+        match self.space {
+            Space::Linear => u.iter_mut().for_each(|v| *v = v.clamp(lo, hi)),
+            Space::Log => u.iter_mut().for_each(|v| *v = v.clamp(lo.max(1e-30).ln(), hi.ln())),
+            Space::UniformLog => {
+                // The tightest bound over components: θ₀ᵢ·e^u within [lo, hi] for every i.
+                let (mut ulo, mut uhi) = (f64::NEG_INFINITY, f64::INFINITY);
+                for &s in &self.start {
+                    ulo = ulo.max((lo.max(1e-30) / s as f64).ln());
+                    uhi = uhi.min((hi / s as f64).ln());
+                }
+                if ulo <= uhi {
+                    u[0] = u[0].clamp(ulo, uhi);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,272 @@
+//! `report.html`: one self-contained page per run (images embedded as base64 PNG, charts as inline SVG, no
+//! scripts), readable offline: per stage its images, loss curves, parameter trajectories, timings and events.
+
+use super::chart::{LineChart, Series};
+use crate::error::{Error, Result};
+use base64::Engine as _;
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RunReport {
+    pub title: String,
+    pub script: String,
+    pub photo: String,
+    pub command: String,
+    pub seed: u64,
+    pub stages: Vec<StageReport>,
+    pub total_seconds: f64,
+    pub credits: Vec<String>,
+    pub notes: Vec<String>,
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StageReport {
+    pub index: usize,
+    pub name: String,
+    pub seconds: f64,
+    /// "done", "loaded" (finished in an earlier run), "running" or "failed: ...".
+    pub status: String,
+    pub images: Vec<ReportImage>,
+    pub optimizations: Vec<OptimizationReport>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ReportImage {
+    pub label: String,
+    /// A PNG on disk, embedded when the page is written.
+    pub path: PathBuf,
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct OptimizationReport {
+    pub label: String,
+    pub iterations: Vec<IterationRecord>,
+    pub events: Vec<String>,
+    /// Parameter paths, in the order of `IterationRecord::values`.
+    pub params: Vec<String>,
+}
+
+/// One iteration of an optimisation: its loss (and named terms), where its time went, and the parameter
+/// values it was evaluated at.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct IterationRecord {
+    pub iteration: usize,
+    pub loss: f64,
+    pub terms: Vec<(String, f64)>,
+    pub seconds_render: f64,
+    pub seconds_loss: f64,
+    pub seconds_backward: f64,
+    pub seconds_step: f64,
+    /// Per parameter (empty for long ones such as vertices).
+    pub values: Vec<Vec<f32>>,
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;").replace('\'', "&#39;")
+}
+
+/// Components of a parameter shown in its trajectory chart.
+const MAX_COMPONENTS: usize = 12;
+
+fn optimization_html(o: &OptimizationReport) -> String {
+    let mut s = String::new();
+    let _ = write!(s, "<h3>{}</h3>", esc(&o.label));
+    let mut loss = LineChart::new("loss", "iteration", "loss");
+    loss.log_y = o.iterations.iter().all(|r| r.loss > 0.0 || r.loss.is_nan());
+    loss.series.push(Series {
+        name: "total".into(),
+        points: o.iterations.iter().map(|r| (r.iteration as f64, r.loss)).collect(),
+    });
+    let term_names: Vec<String> =
+        o.iterations.first().map(|r| r.terms.iter().map(|t| t.0.clone()).collect()).unwrap_or_default();
+    for (k, name) in term_names.iter().enumerate() {
+        let points = o.iterations.iter().filter_map(|r| r.terms.get(k).map(|t| (r.iteration as f64, t.1))).collect();
+        loss.series.push(Series { name: name.clone(), points });
+    }
+    s.push_str("<div class=\"charts\">");
+    s.push_str(&loss.svg());
+    for (p, name) in o.params.iter().enumerate() {
+        let n = o.iterations.iter().filter_map(|r| r.values.get(p)).map(Vec::len).max().unwrap_or(0);
+        if n == 0 {
+            continue;
+        }
+        let title = if n > MAX_COMPONENTS { format!("{name} (first {MAX_COMPONENTS} of {n})") } else { name.clone() };
+        let mut c = LineChart::new(&title, "iteration", "value");
+        for k in 0..n.min(MAX_COMPONENTS) {
+            let points = o
+                .iterations
+                .iter()
+                .filter_map(|r| r.values.get(p).and_then(|v| v.get(k)).map(|v| (r.iteration as f64, *v as f64)))
+                .collect();
+            c.series.push(Series { name: format!("[{k}]"), points });
+        }
+        s.push_str(&c.svg());
+    }
+    s.push_str("</div>");
+    let sum = |f: fn(&IterationRecord) -> f64| o.iterations.iter().map(f).sum::<f64>();
+    let parts = [
+        ("render", sum(|r| r.seconds_render)),
+        ("loss", sum(|r| r.seconds_loss)),
+        ("backward", sum(|r| r.seconds_backward)),
+        ("step", sum(|r| r.seconds_step)),
+    ];
+    let n = o.iterations.len().max(1) as f64;
+    let total: f64 = parts.iter().map(|p| p.1).sum();
+    s.push_str("<table><tr><th>phase</th><th>total s</th><th>ms / iteration</th></tr>");
+    for (name, t) in parts {
+        let _ = write!(s, "<tr><td>{name}</td><td>{t:.2}</td><td>{:.1}</td></tr>", t / n * 1e3);
+    }
+    let rate = if total > 0.0 { o.iterations.len() as f64 / total } else { 0.0 };
+    let _ = write!(
+        s,
+        "<tr><td>all</td><td>{total:.2}</td><td>{:.1}</td></tr></table><p>{} iterations, {rate:.2} iterations/s</p>",
+        total / n * 1e3,
+        o.iterations.len()
+    );
+    if !o.events.is_empty() {
+        s.push_str("<ul class=\"events\">");
+        for e in &o.events {
+            let _ = write!(s, "<li>{}</li>", esc(e));
+        }
+        s.push_str("</ul>");
+    }
+    s
+}
+
+fn image_html(img: &ReportImage) -> String {
+    match std::fs::read(&img.path) {
+        Ok(bytes) => format!(
+            "<figure><img src=\"data:image/png;base64,{}\" alt=\"{l}\"><figcaption>{l}</figcaption></figure>",
+            base64::engine::general_purpose::STANDARD.encode(bytes),
+            l = esc(&img.label)
+        ),
+        Err(_) => format!(
+            "<figure><figcaption>{}: missing {}</figcaption></figure>",
+            esc(&img.label),
+            esc(&img.path.display().to_string())
+        ),
+    }
+}
+
+/// The page's HTML.
+pub fn report_html(r: &RunReport) -> String {
+    let mut s = String::from("<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>");
+    s.push_str(&esc(&r.title));
+    s.push_str(
+        "</title><style>body{font-family:sans-serif;margin:1.5em;max-width:1400px}figure{display:inline-block;\
+         margin:4px}img{image-rendering:pixelated;min-width:256px}.charts svg{margin:4px;border:1px solid #ddd}\
+         table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}\
+         .events li{color:#a40}</style></head><body>",
+    );
+    let _ = write!(
+        s,
+        "<h1>{}</h1><p>command: <code>{}</code><br>script: {} &middot; photo: {} &middot; seed {} &middot; {:.1} s</p>",
+        esc(&r.title),
+        esc(&r.command),
+        esc(&r.script),
+        esc(&r.photo),
+        r.seed,
+        r.total_seconds
+    );
+    for st in &r.stages {
+        let _ = write!(
+            s,
+            "<h2>{:02} {} <small>({}, {:.1} s)</small></h2>",
+            st.index,
+            esc(&st.name),
+            esc(&st.status),
+            st.seconds
+        );
+        for img in &st.images {
+            s.push_str(&image_html(img));
+        }
+        for o in &st.optimizations {
+            s.push_str(&optimization_html(o));
+        }
+    }
+    if !r.notes.is_empty() {
+        s.push_str("<h2>Notes</h2><ul>");
+        for n in &r.notes {
+            let _ = write!(s, "<li>{}</li>", esc(n));
+        }
+        s.push_str("</ul>");
+    }
+    if !r.credits.is_empty() {
+        s.push_str("<h2>Credits</h2><ul>");
+        for c in &r.credits {
+            let _ = write!(s, "<li>{}</li>", esc(c));
+        }
+        s.push_str("</ul>");
+    }
+    s.push_str("</body></html>\n");
+    s
+}
+
+/// Writes the page atomically.
+pub fn write_report(report: &RunReport, path: &Path) -> Result<()> {
+    let html = report_html(report);
+    crate::output::write_atomically(path, |tmp| std::fs::write(tmp, &html).map_err(|e| Error::io(tmp, e)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn report_embeds_images_escapes_text_and_writes_atomically() {
+        let dir = std::env::temp_dir().join(format!("psdr-report-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let png = dir.join("a.png");
+        crate::output::write_png_srgb(&png, 2, 1, &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0]).unwrap();
+        let rec = |i: usize, loss: f64| IterationRecord {
+            iteration: i,
+            loss,
+            terms: vec![("mask".into(), loss / 2.0)],
+            seconds_render: 0.01,
+            values: vec![vec![i as f32, 1.0]],
+            ..Default::default()
+        };
+        let report = RunReport {
+            title: "t".into(),
+            stages: vec![
+                StageReport {
+                    index: 1,
+                    name: "<script>alert(1)</script>".into(),
+                    status: "done".into(),
+                    images: vec![ReportImage { label: "final".into(), path: png.clone() }],
+                    optimizations: vec![OptimizationReport {
+                        label: "fit".into(),
+                        iterations: vec![rec(0, 1.0), rec(1, f64::NAN), rec(2, 0.1)],
+                        events: vec!["loss rose & fell".into()],
+                        params: vec!["object/a/translation".into()],
+                    }],
+                    ..Default::default()
+                },
+                StageReport {
+                    index: 2,
+                    name: "b".into(),
+                    images: vec![ReportImage { label: "x".into(), path: dir.join("missing.png") }],
+                    ..Default::default()
+                },
+            ],
+            ..Default::default()
+        };
+        let out = dir.join("report.html");
+        write_report(&report, &out).unwrap();
+        let html = std::fs::read_to_string(&out).unwrap();
+        assert!(!html.contains("<script>") && html.contains("&lt;script&gt;"));
+        assert!(html.contains("missing") && html.contains("loss rose &amp; fell"));
+        assert!(!html.contains("NaN"));
+        let b64 = html.split("base64,").nth(1).unwrap().split('"').next().unwrap();
+        let bytes = base64::engine::general_purpose::STANDARD.decode(b64).unwrap();
+        assert_eq!(bytes, std::fs::read(&png).unwrap());
+        let leftovers: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().contains(".partial"))
+            .collect();
+        assert!(leftovers.is_empty());
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

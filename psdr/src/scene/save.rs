@@ -1,0 +1,163 @@
+//! `Scene` -> scene file: what every pipeline stage writes (`stages/NN_name/scene.json`), readable by
+//! `psdr render` and `load_scene`. Self-contained: each object's mesh goes to `meshes/` as OBJ (object space,
+//! its pose in the transform) and each texture to `textures/` as linear EXR, so a stage's output never
+//! depends on where its inputs came from. Numbers are written in Rust's shortest round-trip form, so loading
+//! the file gives back the same floats (normals and quaternions are renormalised on load).
+
+use super::file::*;
+use super::{Color, MeshPart, Scalar, Scene};
+use crate::error::{Error, Result};
+use crate::output::{write_atomically, write_exr_channels};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Writes `scene` to `path` (JSON) with its meshes and textures in `meshes/` and `textures/` beside it.
+pub fn save_scene(scene: &Scene, path: &Path) -> Result<()> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let texture_file = |i: usize| format!("textures/t{i:03}.exr");
+    for (i, t) in scene.textures.iter().enumerate() {
+        let n = (t.width * t.height) as usize;
+        let c = t.channels as usize;
+        let channel = |k: usize| (0..n).map(|p| t.texels[p * c + k.min(c - 1)]).collect::<Vec<f32>>();
+        let channels =
+            vec![("R".to_string(), channel(0)), ("G".to_string(), channel(1)), ("B".to_string(), channel(2))];
+        let file = dir.join(texture_file(i));
+        write_atomically(&file, |tmp| write_exr_channels(tmp, t.width, t.height, &channels))?;
+    }
+    let value = |c: Color| match c {
+        Color::Constant(v) => ValueFile::Rgb(v.to_array()),
+        Color::Texture(t) => ValueFile::Texture(TextureRef { texture: texture_file(t), srgb: Some(false) }),
+    };
+    let scalar = |s: Scalar| match s {
+        Scalar::Constant(v) => ValueFile::Number(v),
+        Scalar::Texture(t) => ValueFile::Texture(TextureRef { texture: texture_file(t), srgb: Some(false) }),
+    };
+    let materials = scene
+        .materials
+        .iter()
+        .map(|m| MaterialFile {
+            name: m.name.clone(),
+            albedo: Some(value(m.albedo)),
+            roughness: Some(scalar(m.roughness)),
+            specular: Some(scalar(m.specular)),
+            normal_map: m.normal_map.map(texture_file),
+            uv_transform: Some(UvTransformFile {
+                scale: Some(m.uv_transform.scale.to_array().to_vec()),
+                rotation_deg: Some(m.uv_transform.rotation_deg),
+                offset: Some(m.uv_transform.offset.to_array()),
+            }),
+        })
+        .collect();
+    let mut shapes = vec![];
+    for (i, o) in scene.objects.iter().enumerate() {
+        let rel = format!("meshes/{i:03}_{}.obj", file_safe(&o.name));
+        let names = part_names(&o.parts);
+        let text = obj_text(&o.parts, &names);
+        write_atomically(&dir.join(&rel), |tmp| std::fs::write(tmp, &text).map_err(|e| Error::io(tmp, e)))?;
+        let part_materials: BTreeMap<String, String> =
+            o.parts.iter().zip(&names).map(|(p, n)| (n.clone(), scene.materials[p.material].name.clone())).collect();
+        shapes.push(ShapeFile {
+            name: o.name.clone(),
+            kind: "obj".into(),
+            file: Some(rel),
+            size: None,
+            radius: None,
+            rings: None,
+            segments: None,
+            inward: None,
+            material: None,
+            part_materials,
+            transform: Some(TransformFile {
+                translation: Some(o.pose.translation.to_array()),
+                rotation_deg: None,
+                quaternion: Some(o.pose.rotation.to_array()),
+                scale: Some(o.pose.scale.to_array().to_vec()),
+            }),
+            emitter: o
+                .emitter
+                .map(|e| EmitterFile { radiance: ValueFile::Rgb(e.radiance.to_array()), two_sided: e.two_sided }),
+        });
+    }
+    let c = &scene.camera;
+    let (right, up, back) = (c.right(), c.up, -c.forward);
+    let to_world = [
+        [right.x, up.x, back.x, c.origin.x],
+        [right.y, up.y, back.y, c.origin.y],
+        [right.z, up.z, back.z, c.origin.z],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    let file = SceneFile {
+        format: FORMAT.into(),
+        version: VERSION,
+        camera: CameraFile {
+            origin: None,
+            target: None,
+            up: None,
+            to_world: Some(to_world),
+            fov_y: c.fov_y_deg,
+            width: c.width,
+            height: c.height,
+        },
+        render: RenderFile {
+            spp: Some(scene.settings.spp),
+            max_depth: Some(scene.settings.max_depth),
+            rr_depth: Some(scene.settings.rr_depth),
+            seed: Some(scene.settings.seed),
+        },
+        materials,
+        shapes,
+        requires_grad: scene.requires_grad.iter().map(|p| p.to_string()).collect(),
+    };
+    let text = serde_json::to_string_pretty(&file).map_err(|e| Error::io(path, e))?;
+    write_atomically(path, |tmp| std::fs::write(tmp, &text).map_err(|e| Error::io(tmp, e)))
+}
+
+/// Part names as OBJ group names: the part's own when it is one token, else `partN` (the scene maps parts to
+/// materials by these names, so they must survive the OBJ reader).
+fn part_names(parts: &[MeshPart]) -> Vec<String> {
+    let mut names: Vec<String> = vec![];
+    for (k, p) in parts.iter().enumerate() {
+        let ok = !p.name.is_empty() && p.name.chars().all(|c| c.is_ascii_graphic()) && !names.contains(&p.name);
+        names.push(if ok { p.name.clone() } else { format!("part{k}") });
+    }
+    names
+}
+
+/// One `o` group per part; every vertex keeps its own index for position, uv and normal.
+fn obj_text(parts: &[MeshPart], names: &[String]) -> String {
+    let mut s = String::from("# written by psdr\n");
+    let mut base = 1usize;
+    for (p, name) in parts.iter().zip(names) {
+        let _ = writeln!(s, "o {name}");
+        for v in &p.positions {
+            let _ = writeln!(s, "v {} {} {}", v.x, v.y, v.z);
+        }
+        for t in p.uvs.iter().flatten() {
+            let _ = writeln!(s, "vt {} {}", t.x, t.y);
+        }
+        for n in p.normals.iter().flatten() {
+            let _ = writeln!(s, "vn {} {} {}", n.x, n.y, n.z);
+        }
+        for tri in &p.indices {
+            s.push('f');
+            for &i in tri {
+                let i = i as usize + base;
+                let _ = match (p.uvs.is_some(), p.normals.is_some()) {
+                    (false, false) => write!(s, " {i}"),
+                    (true, false) => write!(s, " {i}/{i}"),
+                    (false, true) => write!(s, " {i}//{i}"),
+                    (true, true) => write!(s, " {i}/{i}/{i}"),
+                };
+            }
+            s.push('\n');
+        }
+        base += p.positions.len();
+    }
+    s
+}
+
+/// A file-name-safe form of an object name.
+fn file_safe(name: &str) -> String {
+    name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).take(48).collect()
+}

@@ -1,0 +1,381 @@
+//! `optimize(scene, #{ params, lr, iters, spp, loss, ... })` in scripts: parses the options into parameter
+//! specs and optimiser settings, runs the loop with the script's loss closure, checkpoints inside stages, and
+//! adds the optimisation to the stage's report.
+
+use super::engine::{rhai_err, Rr, RunRef};
+use super::scene_api::{RenderHandle, SceneHandle};
+use crate::error::{Error, Result};
+use crate::loss::Tensor;
+use crate::optim::{glob_match, optimize, select, OptimizeOptions, ParamSpec, Rendered, Schedule, Space};
+use crate::report::OptimizationReport;
+use crate::scene::Scene;
+use indicatif::{ProgressBar, ProgressStyle};
+use rhai::{Array, Dynamic, Engine, EvalAltResult, FnPtr, Map, NativeCallContext};
+use std::cell::RefCell;
+use std::rc::Rc;
+
+/// Options `optimize` knows; anything else is a typo and an error.
+const KNOWN: &[&str] = &[
+    "params",
+    "lr",
+    "iters",
+    "spp",
+    "seed",
+    "max_depth",
+    "sppe",
+    "sppse",
+    "loss",
+    "targets",
+    "every",
+    "label",
+    "schedule",
+    "divergence_factor",
+    "max_divergences",
+    "fused",
+    "beta1",
+    "beta2",
+];
+
+fn int(m: &Map, key: &str, default: i64) -> Result<i64> {
+    match m.get(key) {
+        None => Ok(default),
+        Some(v) => v
+            .as_int()
+            .map_err(|_| Error::Invalid(format!("optimize: '{key}' must be an integer, found {}", v.type_name()))),
+    }
+}
+
+fn float(v: &Dynamic, key: &str) -> Result<f64> {
+    v.as_float()
+        .or_else(|_| v.as_int().map(|i| i as f64))
+        .map_err(|_| Error::Invalid(format!("optimize: '{key}' must be a number, found {}", v.type_name())))
+}
+
+fn count(m: &Map, key: &str, default: i64) -> Result<u32> {
+    let v = int(m, key, default)?;
+    u32::try_from(v).map_err(|_| Error::Invalid(format!("optimize: '{key}' = {v} is out of range")))
+}
+
+/// `schedule: "constant" | #{kind: "exponential", gamma} | #{kind: "step", every, gamma} | #{kind: "cosine", min}`.
+fn schedule(v: &Dynamic) -> Result<Schedule> {
+    if let Ok(s) = v.clone().into_string() {
+        return match s.as_str() {
+            "constant" => Ok(Schedule::Constant),
+            other => Err(Error::Invalid(format!("schedule '{other}': give \"constant\" or a map with a kind"))),
+        };
+    }
+    let m = v.clone().try_cast::<Map>().ok_or_else(|| Error::Invalid("schedule must be a string or a map".into()))?;
+    let kind = m.get("kind").and_then(|k| k.clone().into_string().ok()).unwrap_or_default();
+    let f = |k: &str| m.get(k).map(|v| float(v, k)).transpose();
+    Ok(match kind.as_str() {
+        "constant" => Schedule::Constant,
+        "exponential" => Schedule::Exponential { gamma: f("gamma")?.unwrap_or(0.99) },
+        "step" => Schedule::Step { every: f("every")?.unwrap_or(50.0) as usize, gamma: f("gamma")?.unwrap_or(0.5) },
+        "cosine" => Schedule::Cosine { min: f("min")?.unwrap_or(0.1) },
+        other => return Err(Error::Invalid(format!("schedule kind '{other}' (constant, exponential, step, cosine)"))),
+    })
+}
+
+/// The parameter specs of `params` (strings or maps `#{select, lr, free, space, min, max, schedule}`), with
+/// rates from the entry, else the first matching pattern of an `lr` map, else a number `lr`, else the kind's
+/// default.
+pub fn specs(scene: &Scene, opts: &Map) -> Result<Vec<ParamSpec>> {
+    let entries = opts
+        .get("params")
+        .and_then(|v| v.clone().try_cast::<Array>())
+        .ok_or_else(|| Error::Invalid("optimize: 'params' must be an array of parameter patterns".into()))?;
+    let default_schedule = opts.get("schedule").map(schedule).transpose()?;
+    let mut out: Vec<ParamSpec> = vec![];
+    for e in entries {
+        let (pattern, extra) = match e.clone().into_string() {
+            Ok(s) => (s, Map::new()),
+            Err(_) => {
+                let m = e.try_cast::<Map>().ok_or_else(|| {
+                    Error::Invalid("optimize: each 'params' entry is a pattern string or a map with 'select'".into())
+                })?;
+                let s = m
+                    .get("select")
+                    .and_then(|v| v.clone().into_string().ok())
+                    .ok_or_else(|| Error::Invalid("optimize: a 'params' map needs 'select': \"pattern\"".into()))?;
+                (s, m)
+            }
+        };
+        for path in select(scene, &pattern)? {
+            if out.iter().any(|s| s.path == path) {
+                return Err(Error::Invalid(format!("optimize: {path} is selected twice")));
+            }
+            let mut spec = ParamSpec::new(scene, path)?;
+            match opts.get("lr") {
+                Some(v) if v.is_map() => {
+                    let m = v.clone().cast::<Map>();
+                    if let Some((_, lr)) = m.iter().find(|(k, _)| glob_match(k, &spec.path.to_string())) {
+                        spec.lr = float(lr, "lr")?;
+                    }
+                }
+                Some(v) => spec.lr = float(v, "lr")?,
+                None => {}
+            }
+            if let Some(s) = default_schedule {
+                spec.schedule = s;
+            }
+            for (k, v) in &extra {
+                match k.as_str() {
+                    "select" => {}
+                    "lr" => spec.lr = float(v, "lr")?,
+                    "min" => spec.lower = float(v, "min")? as f32,
+                    "max" => spec.upper = float(v, "max")? as f32,
+                    "schedule" => spec.schedule = schedule(v)?,
+                    "free" => match v.clone().into_string() {
+                        Ok(axes) => spec.set_free_axes(&axes)?,
+                        Err(_) => {
+                            let a = v.clone().try_cast::<Array>().ok_or_else(|| {
+                                Error::Invalid(format!("{}: free is \"xz\"-style axes or an array of booleans", spec.path))
+                            })?;
+                            spec.free = a.iter().map(|b| b.as_bool().unwrap_or(false)).collect();
+                        }
+                    },
+                    "space" => {
+                        spec.space = match v.clone().into_string().unwrap_or_default().as_str() {
+                            "linear" => Space::Linear,
+                            "log" => Space::Log,
+                            "uniform_log" => Space::UniformLog,
+                            other => {
+                                return Err(Error::Invalid(format!(
+                                    "{}: space '{other}' (linear, log, uniform_log)",
+                                    spec.path
+                                )))
+                            }
+                        }
+                    }
+                    other => {
+                        return Err(Error::Invalid(format!(
+                            "optimize: unknown key '{other}' in a params entry (select, lr, free, space, min, max, schedule)"
+                        )))
+                    }
+                }
+            }
+            spec.check()?;
+            out.push(spec);
+        }
+    }
+    Ok(out)
+}
+
+/// The optimiser settings of an options map.
+pub fn options(opts: &Map) -> Result<OptimizeOptions> {
+    if let Some(k) = opts.keys().find(|k| !KNOWN.contains(&k.as_str())) {
+        return Err(Error::Invalid(format!("optimize: unknown option '{k}'; options are {}", KNOWN.join(", "))));
+    }
+    let d = OptimizeOptions::default();
+    let mut o = OptimizeOptions {
+        iters: int(opts, "iters", d.iters as i64)?.max(0) as usize,
+        spp: count(opts, "spp", d.spp as i64)?,
+        seed: count(opts, "seed", d.seed as i64)?,
+        max_depth: opts.get("max_depth").map(|_| count(opts, "max_depth", 5)).transpose()?,
+        edge_samples: count(opts, "sppe", d.edge_samples as i64)?,
+        secondary_edge_samples: count(opts, "sppse", d.secondary_edge_samples as i64)?,
+        checkpoint_every: int(opts, "every", d.checkpoint_every as i64)?.max(0) as usize,
+        max_divergences: int(opts, "max_divergences", d.max_divergences as i64)?.max(0) as usize,
+        ..d
+    };
+    if let Some(v) = opts.get("divergence_factor") {
+        o.divergence_factor = float(v, "divergence_factor")?;
+    }
+    if let Some(v) = opts.get("fused") {
+        o.fused = v.as_bool().map_err(|_| Error::Invalid("optimize: 'fused' must be true or false".into()))?;
+    }
+    if let Some(v) = opts.get("beta1") {
+        o.adam.beta1 = float(v, "beta1")?;
+    }
+    if let Some(v) = opts.get("beta2") {
+        o.adam.beta2 = float(v, "beta2")?;
+    }
+    Ok(o)
+}
+
+/// What a loss closure returned: a scalar tensor (one term, "loss"), or a map of named scalar terms.
+fn terms_of(v: Dynamic) -> Result<Vec<(String, Tensor)>> {
+    if v.is::<Tensor>() {
+        return Ok(vec![("loss".into(), v.cast::<Tensor>())]);
+    }
+    if let Some(m) = v.clone().try_cast::<Map>() {
+        let mut out = vec![];
+        for (k, t) in m {
+            let t = t
+                .clone()
+                .try_cast::<Tensor>()
+                .ok_or_else(|| Error::Invalid(format!("loss term '{k}' is a {}, not a tensor", t.type_name())))?;
+            out.push((k.to_string(), t));
+        }
+        return Ok(out);
+    }
+    Err(Error::Invalid(format!(
+        "the loss closure returned a {}; it must return a scalar tensor (e.g. l1(r.radiance, target)) or a map of them",
+        v.type_name()
+    )))
+}
+
+fn run_optimize(ctx: &NativeCallContext, run: &RunRef, scene: &mut Scene, opts: &Map) -> Rr<Map> {
+    let specs = specs(scene, opts).map_err(rhai_err)?;
+    let mut o = options(opts).map_err(rhai_err)?;
+    let loss_fn: FnPtr = opts.get("loss").and_then(|v| v.clone().try_cast::<FnPtr>()).ok_or_else(|| {
+        rhai_err(Error::Invalid("optimize: 'loss' must be a closure, e.g. |r| l2(r.radiance, target)".into()))
+    })?;
+    let targets = opts.get("targets").cloned();
+    let label = opts.get("label").and_then(|v| v.clone().into_string().ok());
+    let (quiet, stage_name) = {
+        let mut c = run.borrow_mut();
+        let stage_name = c.current.as_ref().map(|s| format!("{:02} {}", s.index, s.name)).unwrap_or_default();
+        // Checkpoints live in the stage's folder; outside stages there is nothing to resume into.
+        if let Some(stage) = c.current.as_mut() {
+            o.checkpoint = Some(stage.dir.join(format!("optimize{}.checkpoint.json", stage.optimizations)));
+            stage.optimizations += 1;
+        }
+        o.resume = c.options.resume;
+        (c.options.quiet, stage_name)
+    };
+    let label = label.unwrap_or_else(|| {
+        format!("optimize {}", specs.iter().map(|s| s.path.to_string()).collect::<Vec<_>>().join(", "))
+    });
+    let mut backend = run
+        .borrow_mut()
+        .backend
+        .take()
+        .ok_or_else(|| rhai_err(Error::Invalid("optimize() cannot run inside a loss closure".into())))?;
+    // The closure's own script error, kept with its position to report instead of a flattened message.
+    let script_error: RefCell<Option<Box<EvalAltResult>>> = RefCell::new(None);
+    let mut call = |r: Rc<Rendered>| call_loss(ctx, &loss_fn, &targets, r, &script_error);
+    let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(o.iters as u64) };
+    bar.set_style(
+        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} {per_sec} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_prefix(stage_name);
+    let every = o.checkpoint_every.max(1);
+    let mut observe = |r: &crate::report::IterationRecord| {
+        bar.set_position(r.iteration as u64 + 1);
+        bar.set_message(format!("loss {:.4e}", r.loss));
+        if !quiet && bar.is_hidden() && (r.iteration + 1).is_multiple_of(every) {
+            eprintln!("  iteration {} loss {:.4e}", r.iteration + 1, r.loss);
+        }
+    };
+    let outcome = optimize(scene, &specs, &mut call, &o, backend.as_mut(), &mut observe);
+    bar.finish_and_clear();
+    run.borrow_mut().backend = Some(backend);
+    let outcome = match outcome {
+        Ok(x) => x,
+        // A failing loss closure reports its own script error (with its line and column).
+        Err(e) if e.to_string().starts_with("the loss closure failed") => {
+            return Err(script_error.take().unwrap_or_else(|| rhai_err(e)))
+        }
+        Err(e) => return Err(rhai_err(e)),
+    };
+    if !quiet {
+        for e in &outcome.events {
+            eprintln!("  {e}");
+        }
+    }
+    let mut result = Map::new();
+    let last = outcome.records.last().map(|r| r.loss).unwrap_or(f64::NAN);
+    result.insert("loss".into(), Dynamic::from_float(last));
+    result.insert("best_loss".into(), Dynamic::from_float(outcome.best_loss.unwrap_or(f64::NAN)));
+    result.insert("iterations".into(), Dynamic::from_int(outcome.records.len() as i64));
+    result.insert("fused_iterations".into(), Dynamic::from_int(outcome.fused_iterations as i64));
+    result.insert("stopped".into(), Dynamic::from(outcome.stopped.clone().unwrap_or_default()));
+    result.insert("events".into(), outcome.events.iter().map(|e| Dynamic::from(e.clone())).collect::<Array>().into());
+    result
+        .insert("losses".into(), outcome.records.iter().map(|r| Dynamic::from_float(r.loss)).collect::<Array>().into());
+    let report = OptimizationReport {
+        label,
+        iterations: outcome.records,
+        events: outcome.events,
+        params: specs.iter().map(|s| s.path.to_string()).collect(),
+    };
+    let mut c = run.borrow_mut();
+    match c.current.as_mut() {
+        Some(stage) => stage.report.optimizations.push(report),
+        None => {
+            c.report.notes.push(format!("{} (outside a stage): {} iterations", report.label, report.iterations.len()))
+        }
+    }
+    Ok(result)
+}
+
+/// `gradient(scene, #{ params, loss, spp, seed, ... })`: the loss and dLoss/dθ at the scene's current state,
+/// as the first iteration of `optimize` with the same options computes them. Returns `#{ loss, grad: #{ path:
+/// [..] } }`.
+fn run_gradient(ctx: &NativeCallContext, run: &RunRef, scene: &Scene, opts: &Map) -> Rr<Map> {
+    let specs = specs(scene, opts).map_err(rhai_err)?;
+    let o = options(opts).map_err(rhai_err)?;
+    let paths: Vec<_> = specs.iter().map(|s| s.path.clone()).collect();
+    let loss_fn: FnPtr = opts
+        .get("loss")
+        .and_then(|v| v.clone().try_cast::<FnPtr>())
+        .ok_or_else(|| rhai_err(Error::Invalid("gradient: 'loss' must be a closure".into())))?;
+    let targets = opts.get("targets").cloned();
+    let mut backend = run
+        .borrow_mut()
+        .backend
+        .take()
+        .ok_or_else(|| rhai_err(Error::Invalid("gradient() cannot run inside a loss closure".into())))?;
+    let script_error: RefCell<Option<Box<EvalAltResult>>> = RefCell::new(None);
+    let mut call = |r: Rc<Rendered>| call_loss(ctx, &loss_fn, &targets, r, &script_error);
+    let e = crate::optim::gradient(scene, &paths, &mut call, &o, backend.as_mut());
+    run.borrow_mut().backend = Some(backend);
+    let e = match e {
+        Ok(e) => e,
+        Err(e) if e.to_string().starts_with("the loss closure failed") => {
+            return Err(script_error.take().unwrap_or_else(|| rhai_err(e)))
+        }
+        Err(e) => return Err(rhai_err(e)),
+    };
+    let mut grad = Map::new();
+    let mut at = 0;
+    for p in &paths {
+        let n = p.get(scene).map_err(rhai_err)?.len();
+        grad.insert(
+            p.to_string().into(),
+            e.grad[at..at + n].iter().map(|&v| Dynamic::from_float(v)).collect::<Array>().into(),
+        );
+        at += n;
+    }
+    let mut out = Map::new();
+    out.insert("loss".into(), Dynamic::from_float(e.total.item().unwrap_or(f32::NAN) as f64));
+    out.insert("grad".into(), grad.into());
+    out.insert("fused".into(), Dynamic::from_bool(e.fused));
+    Ok(out)
+}
+
+/// Calls the script's loss closure on a render: `|r|`, or `|r, t|` when the options hold `targets`.
+fn call_loss(
+    ctx: &NativeCallContext,
+    loss_fn: &FnPtr,
+    targets: &Option<Dynamic>,
+    r: Rc<Rendered>,
+    script_error: &RefCell<Option<Box<EvalAltResult>>>,
+) -> Result<Vec<(String, Tensor)>> {
+    let handle = RenderHandle(r);
+    let value = match targets {
+        Some(t) => loss_fn.call_within_context::<Dynamic>(ctx, (handle, t.clone())),
+        None => loss_fn.call_within_context::<Dynamic>(ctx, (handle,)),
+    };
+    match value {
+        Ok(v) => terms_of(v),
+        Err(e) => {
+            let msg = e.to_string();
+            *script_error.borrow_mut() = Some(e);
+            Err(Error::Invalid(format!("the loss closure failed: {msg}")))
+        }
+    }
+}
+
+pub fn register(engine: &mut Engine, run: &RunRef) {
+    let r = run.clone();
+    engine.register_fn("gradient", move |ctx: NativeCallContext, s: &mut SceneHandle, opts: Map| -> Rr<Map> {
+        run_gradient(&ctx, &r, &s.0, &opts)
+    });
+    let r = run.clone();
+    engine.register_fn("optimize", move |ctx: NativeCallContext, s: &mut SceneHandle, opts: Map| -> Rr<Map> {
+        run_optimize(&ctx, &r, &mut s.0, &opts)
+    });
+}
