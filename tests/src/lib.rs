@@ -187,3 +187,16 @@ pub fn write_file(dir: &std::path::Path, name: &str, text: &str) -> PathBuf {
     std::fs::write(&p, text).expect("write test file");
     p
 }
+
+/// The psdr binary, when cargo has built it next to this test (`cargo test --workspace` does); None (with a
+/// note) otherwise, so a test that drives the binary skips instead of failing on a partial build.
+pub fn psdr_bin() -> Option<PathBuf> {
+    let exe = std::env::current_exe().ok()?;
+    let dir = exe.parent().and_then(std::path::Path::parent)?;
+    let bin = dir.join(format!("psdr{}", std::env::consts::EXE_SUFFIX));
+    if !bin.is_file() {
+        eprintln!("skipped: the psdr binary is not built in this target dir (run cargo test --workspace)");
+        return None;
+    }
+    Some(bin)
+}

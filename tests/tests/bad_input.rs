@@ -194,21 +194,10 @@ fn degenerate_triangles_render_finite() {
     assert!(f.radiance.iter().any(|&x| x > 0.0), "the lamp lights the mesh");
 }
 
-/// The psdr binary, when cargo has built it next to this test (`cargo test --workspace` does).
-fn psdr_bin() -> Option<std::path::PathBuf> {
-    let exe = std::env::current_exe().unwrap();
-    let bin = exe.parent().and_then(Path::parent).map(|d| d.join(format!("psdr{}", std::env::consts::EXE_SUFFIX)));
-    let bin = bin.filter(|b| b.is_file());
-    if bin.is_none() {
-        eprintln!("skipped: the psdr binary is not built in this target dir (run cargo test --workspace)");
-    }
-    bin
-}
-
 /// A missing scene exits non-zero and names the file.
 #[test]
 fn cli_render_of_a_missing_scene_fails_with_a_message() {
-    let Some(bin) = psdr_bin() else {
+    let Some(bin) = psdr_tests::psdr_bin() else {
         return;
     };
     let dir = temp_dir("bad-cli");
@@ -227,7 +216,7 @@ fn cli_render_of_a_missing_scene_fails_with_a_message() {
 /// "± NaN"), and zero seeds is rejected by name instead of silently running one.
 #[test]
 fn cli_grad_with_one_seed_prints_no_nan_and_zero_seeds_is_an_error() {
-    let Some(bin) = psdr_bin() else {
+    let Some(bin) = psdr_tests::psdr_bin() else {
         return;
     };
     let scene = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/cube_room/scene.json"));
