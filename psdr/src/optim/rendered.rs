@@ -15,6 +15,8 @@ pub struct Rendered {
     object_names: Vec<String>,
     /// False in the fused estimator's pass, which yields radiance only.
     has_aovs: bool,
+    /// False for a plain render (a script's `render()`): its outputs are constants, on no tape.
+    on_tape: bool,
     /// Set when the loss asked for an output this pass does not have (the optimiser then renders them all).
     missing: Cell<bool>,
     radiance: RefCell<Option<Tensor>>,
@@ -26,6 +28,11 @@ impl Rendered {
     /// A full frame: radiance and every AOV.
     pub fn new(frame: Frame, object_names: Vec<String>) -> Rendered {
         Rendered::with(frame, object_names, true)
+    }
+
+    /// A plain render whose outputs are constants (nothing will be differentiated through them).
+    pub fn constant(frame: Frame, object_names: Vec<String>) -> Rendered {
+        Rendered { on_tape: false, ..Rendered::with(frame, object_names, true) }
     }
 
     /// Radiance only (`radiance` w·h·3 values); reading an AOV marks the pass as missing it.
@@ -40,6 +47,7 @@ impl Rendered {
             frame,
             object_names,
             has_aovs,
+            on_tape: true,
             missing: Cell::new(false),
             radiance: RefCell::new(None),
             depth: RefCell::new(None),
@@ -64,6 +72,15 @@ impl Rendered {
         Image::new(self.width(), self.height(), channels, data)
     }
 
+    /// A rendered output as a tape input (or a constant for a plain render).
+    fn leaf(&self, image: Image) -> Tensor {
+        if self.on_tape {
+            self.tape.input(image)
+        } else {
+            Tensor::constant(image)
+        }
+    }
+
     fn need_aovs(&self, what: &str) -> Result<()> {
         if self.has_aovs {
             return Ok(());
@@ -82,7 +99,7 @@ impl Rendered {
         if let Some(t) = &*self.radiance.borrow() {
             return Ok(t.clone());
         }
-        let t = self.tape.input(self.image(3, self.frame.radiance.clone())?);
+        let t = self.leaf(self.image(3, self.frame.radiance.clone())?);
         *self.radiance.borrow_mut() = Some(t.clone());
         Ok(t)
     }
@@ -93,7 +110,7 @@ impl Rendered {
         if let Some(t) = &*self.depth.borrow() {
             return Ok(t.clone());
         }
-        let t = self.tape.input(self.image(1, self.frame.depth.clone())?);
+        let t = self.leaf(self.image(1, self.frame.depth.clone())?);
         *self.depth.borrow_mut() = Some(t.clone());
         Ok(t)
     }
@@ -107,7 +124,7 @@ impl Rendered {
         if let Some((_, t)) = self.masks.borrow().iter().find(|(i, _)| *i == o) {
             return Ok(t.clone());
         }
-        let t = self.tape.input(self.image(1, self.frame.mask(o))?);
+        let t = self.leaf(self.image(1, self.frame.mask(o))?);
         self.masks.borrow_mut().push((o, t.clone()));
         Ok(t)
     }

@@ -15,6 +15,8 @@ pub struct RunReport {
     pub photo: String,
     pub command: String,
     pub seed: u64,
+    /// Images shown outside any stage (the photo, targets): shown beside every stage's own images.
+    pub images: Vec<ReportImage>,
     pub stages: Vec<StageReport>,
     pub total_seconds: f64,
     pub credits: Vec<String>,
@@ -190,7 +192,7 @@ pub fn report_html(r: &RunReport) -> String {
             esc(&st.status),
             st.seconds
         );
-        for img in &st.images {
+        for img in r.images.iter().chain(&st.images) {
             s.push_str(&image_html(img));
         }
         for o in &st.optimizations {

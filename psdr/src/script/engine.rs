@@ -121,8 +121,10 @@ pub fn build_engine(run: &RunRef) -> Engine {
             label.chars().map(|ch| if ch.is_ascii_alphanumeric() || ch == '_' { ch } else { '_' }).collect::<String>();
         let path = c.current_dir().join(format!("{file}.png"));
         super::scene_api::write_image(t.value(), &path).map_err(rhai_err)?;
-        if let Some(stage) = c.current.as_mut() {
-            stage.report.images.push(crate::report::ReportImage { label: label.to_string(), path });
+        let image = crate::report::ReportImage { label: label.to_string(), path };
+        match c.current.as_mut() {
+            Some(stage) => stage.report.images.push(image),
+            None => c.report.images.push(image),
         }
         Ok(())
     });

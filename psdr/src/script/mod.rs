@@ -68,6 +68,7 @@ pub fn run_script(run: ScriptRun, backend: Box<dyn Backend>) -> Result<RunSummar
         photo: run.photo.display().to_string(),
         command: run.command.clone(),
         seed: 0,
+        images: vec![],
         stages: vec![],
         total_seconds: 0.0,
         credits: vec![],

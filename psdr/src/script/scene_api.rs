@@ -147,7 +147,7 @@ fn render(run: &RunRef, scene: &Scene, opts: &rhai::Map) -> Result<Rendered> {
         .ok_or_else(|| Error::Invalid("render() cannot be called inside a loss closure; use its argument".into()))?;
     let data = crate::render::SceneData::build(scene)?;
     let frame = backend.render(&data, &settings, &|_, _| {})?;
-    Ok(Rendered::new(frame, scene.objects.iter().map(|o| o.name.clone()).collect()))
+    Ok(Rendered::constant(frame, scene.objects.iter().map(|o| o.name.clone()).collect()))
 }
 
 pub fn register(engine: &mut Engine, run: &RunRef) {
