@@ -3,15 +3,10 @@
 //! repeated runs); a different seed gives a different image.
 
 use psdr::render::{render_cpu, Frame, SceneData};
-use psdr::scene::{load_scene, Scene};
-use std::path::Path;
+use psdr::scene::Scene;
 
 fn room(seed: u32) -> Scene {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json");
-    let mut s = load_scene(Path::new(path)).expect("example room loads");
-    s.camera.width = 40;
-    s.camera.height = 30;
-    s.settings.spp = 4;
+    let mut s = psdr_tests::example_room(40, 30, 4);
     s.settings.max_depth = 5;
     s.settings.rr_depth = 2;
     s.settings.seed = seed;

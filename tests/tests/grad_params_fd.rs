@@ -7,12 +7,7 @@ use psdr::render::{render_cpu, SceneData};
 use psdr::scene::{load_scene, Scene};
 
 fn small_room() -> Scene {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json");
-    let mut s = load_scene(std::path::Path::new(path)).expect("example room loads");
-    s.camera.width = 32;
-    s.camera.height = 24;
-    s.settings.spp = 2;
-    s
+    psdr_tests::example_room(32, 24, 2)
 }
 
 #[test]

@@ -8,7 +8,7 @@ mod grad_common;
 use grad_common::{ad as ad_with, fd, scene_from_json};
 use psdr::grad::{AdEstimate, AdOptions, ImageLoss, Output};
 use psdr::render::{render_cpu, SceneData};
-use psdr::scene::{load_scene, Scene};
+use psdr::scene::Scene;
 
 const REPLICAS: u32 = 12;
 
@@ -30,11 +30,7 @@ fn box_scene(x: f32) -> Scene {
 
 /// The example room's table (an OBJ of five boxes) lifted 5 cm off the floor, small image.
 fn lifted_table() -> Scene {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json");
-    let mut s = load_scene(std::path::Path::new(path)).unwrap();
-    s.camera.width = 96;
-    s.camera.height = 72;
-    s.settings.spp = 32;
+    let mut s = psdr_tests::example_room(96, 72, 32);
     let t = s.object_index("table").unwrap();
     s.objects[t].pose.translation.y = 0.05;
     // The vase would intersect the lifted table top; intersection curves are not mesh edges (not handled yet).

@@ -24,7 +24,7 @@ use psdr::backend::{
 };
 use psdr::render::layout::*;
 use psdr::render::{Frame, SceneData};
-use psdr::scene::{load_scene, sphere_mesh, Emitter, Material, MeshPart, Object, Pose, Scene};
+use psdr::scene::{sphere_mesh, Emitter, Material, MeshPart, Object, Pose, Scene};
 use psdr_vk::{Buffer, Groups, Kernel, StorageBinding};
 
 fn vk() -> Option<VkBackend> {
@@ -41,12 +41,7 @@ fn vk() -> Option<VkBackend> {
 }
 
 fn room(width: u32, height: u32, spp: u32) -> Scene {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json");
-    let mut s = load_scene(std::path::Path::new(path)).expect("example room loads");
-    s.camera.width = width;
-    s.camera.height = height;
-    s.settings.spp = spp;
-    s
+    psdr_tests::example_room(width, height, spp)
 }
 
 /// The room with a large smooth sphere (about 100k triangles, vertex normals and uvs), a second, two-sided

@@ -95,30 +95,25 @@ fn load_average() -> String {
 
 /// Grouped horizontal bars: Mrays/s of each backend per scene and size.
 fn chart(bars: &[(String, &str, f64)], vk: &str, cpu: &str) -> String {
-    let (label_w, plot_w, row_h, top) = (190.0, 460.0, 16.0, 56.0);
-    let max = bars.iter().map(|b| b.2).fold(1e-9, f64::max);
-    let h = top + row_h * bars.len() as f64 + 24.0;
-    let mut s = format!(
-        "<svg xmlns='http://www.w3.org/2000/svg' width='{}' height='{h}' font-family='sans-serif' font-size='11'>\n\
-         <rect width='100%' height='100%' fill='white'/>\n\
-         <text x='10' y='18' font-size='13'>Mrays/s, same scenes and seeds (higher is better)</text>\n\
-         <text x='10' y='34' fill='#3b6fb6'>cpu: {cpu}</text><text x='10' y='48' fill='#e07b39'>vk: {vk}</text>\n",
-        label_w + plot_w + 70.0
-    );
-    for (i, (label, backend, v)) in bars.iter().enumerate() {
-        let y = top + row_h * i as f64;
-        let color = if *backend == "cpu" { "#3b6fb6" } else { "#e07b39" };
-        let w = plot_w * v / max;
-        s += &format!(
-            "<text x='{}' y='{}' text-anchor='end'>{label} {backend}</text>\
-             <rect x='{label_w}' y='{}' width='{w:.1}' height='11' fill='{color}'/>\
-             <text x='{:.1}' y='{}'>{v:.2}</text>\n",
-            label_w - 4.0,
-            y + 10.0,
-            y + 1.0,
-            label_w + w + 4.0,
-            y + 10.0
-        );
+    // One row per scene and size, a bar per backend.
+    let mut rows: Vec<(String, Vec<f64>)> = vec![];
+    for (label, backend, v) in bars {
+        let k = usize::from(*backend != "cpu");
+        match rows.iter_mut().find(|r| &r.0 == label) {
+            Some(r) => r.1[k] = *v,
+            None => {
+                let mut values = vec![f64::NAN; 2];
+                values[k] = *v;
+                rows.push((label.clone(), values));
+            }
+        }
     }
-    s + "</svg>\n"
+    psdr::report::chart::BarChart {
+        title: "Mrays/s, same scenes and seeds (higher is better)".into(),
+        unit: "Mrays/s".into(),
+        series: vec![format!("cpu: {cpu}"), format!("vk: {vk}")],
+        rows,
+        stacked: false,
+    }
+    .svg()
 }

@@ -145,75 +145,20 @@ fn main() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Seconds (linear) against max depth, one polyline per renderer, each psdr point labelled with psdr / Mitsuba.
+/// Seconds (linear) against max depth, one line per renderer, each psdr point labelled with psdr / Mitsuba.
 fn chart(rows: &[Row], a: &Args, name: &str, threads: usize) -> String {
-    let (x0, y0, pw, ph) = (70.0, 40.0, 480.0, 320.0);
-    let ymax = rows.iter().fold(0.0f64, |m, r| m.max(r.psdr_s).max(r.mitsuba_s));
-    let ymax = (ymax * 2.0).ceil() / 2.0;
-    let px = |d: u32| x0 + pw * (d - 1) as f64 / (DEPTHS.len() - 1) as f64;
-    let py = |v: f64| y0 + ph * (1.0 - v / ymax);
-    let mut s = format!(
-        "<svg xmlns='http://www.w3.org/2000/svg' width='{}' height='{}' font-family='sans-serif' font-size='11'>\n\
-         <rect width='100%' height='100%' fill='white'/>\n\
-         <text x='{x0}' y='20' font-size='13'>{name} {}x{}, {} spp: render time by max path depth ({threads} threads)</text>\n\
-         <rect x='{x0}' y='{y0}' width='{pw}' height='{ph}' fill='none' stroke='#888'/>\n",
-        x0 + pw + 150.0,
-        y0 + ph + 50.0,
-        a.width,
-        a.height,
-        a.spp
+    use psdr::report::chart::{Point, Series, XyChart};
+    let mut c = XyChart::new(
+        &format!("{name} {}x{}, {} spp: render time by max path depth ({threads} threads)", a.width, a.height, a.spp),
+        "max depth (1: emitters seen directly, 2: + direct light, ...)",
+        "seconds",
     );
-    let ticks = (ymax / 0.5).round() as i32;
-    for k in 0..=ticks {
-        let v = k as f64 * 0.5;
-        s += &format!(
-            "<line x1='{x0}' y1='{y:.1}' x2='{}' y2='{y:.1}' stroke='#eee'/><text x='{}' y='{:.1}' text-anchor='end'>{v:.1} s</text>\n",
-            x0 + pw,
-            x0 - 6.0,
-            py(v) + 4.0,
-            y = py(v)
-        );
-    }
-    for &d in &DEPTHS {
-        s += &format!("<text x='{:.1}' y='{}' text-anchor='middle'>{d}</text>\n", px(d), y0 + ph + 16.0);
-    }
-    s += &format!(
-        "<text x='{}' y='{}' text-anchor='middle'>max depth (1: emitters seen directly, 2: + direct light, ...)</text>\n",
-        x0 + pw / 2.0,
-        y0 + ph + 36.0
-    );
-    let mut legend_y = y0 + 10.0;
-    for (name, colour, time) in [
-        ("psdr_cpu", "#3b6fb6", (|r: &Row| r.psdr_s) as fn(&Row) -> f64),
-        ("mitsuba_llvm", "#e07b39", |r: &Row| r.mitsuba_s),
-    ] {
-        let line: Vec<String> = rows.iter().map(|r| format!("{:.1},{:.1}", px(r.max_depth), py(time(r)))).collect();
-        s += &format!("<polyline points='{}' fill='none' stroke='{colour}' stroke-width='2'/>\n", line.join(" "));
-        for r in rows {
-            s += &format!("<circle cx='{:.1}' cy='{:.1}' r='3.5' fill='{colour}'/>\n", px(r.max_depth), py(time(r)));
-        }
-        s += &format!(
-            "<line x1='{}' y1='{legend_y}' x2='{}' y2='{legend_y}' stroke='{colour}' stroke-width='2'/>\
-             <text x='{}' y='{}'>{name}</text>\n",
-            x0 + pw + 10.0,
-            x0 + pw + 35.0,
-            x0 + pw + 40.0,
-            legend_y + 4.0
-        );
-        legend_y += 18.0;
-    }
-    for r in rows {
-        s += &format!(
-            "<text x='{:.1}' y='{:.1}' font-size='9' text-anchor='middle'>{:.2}x</text>\n",
-            px(r.max_depth),
-            py(r.psdr_s) - 8.0,
-            r.psdr_s / r.mitsuba_s
-        );
-    }
-    s += &format!(
-        "<text x='{}' y='{}' font-size='9'>labels: psdr time / Mitsuba time</text>\n</svg>\n",
-        x0 + pw + 10.0,
-        legend_y + 6.0
-    );
-    s
+    c.caption = "labels: psdr time / Mitsuba time".into();
+    (c.width, c.height, c.legend_right) = (700.0, 410.0, true);
+    let psdr =
+        rows.iter().map(|r| Point::labelled(r.max_depth as f64, r.psdr_s, format!("{:.2}x", r.psdr_s / r.mitsuba_s)));
+    c.series.push(Series::marked("psdr_cpu", psdr.collect()).color("#3b6fb6"));
+    let mitsuba = rows.iter().map(|r| Point::new(r.max_depth as f64, r.mitsuba_s));
+    c.series.push(Series::marked("mitsuba_llvm", mitsuba.collect()).color("#e07b39"));
+    c.svg() + "\n"
 }

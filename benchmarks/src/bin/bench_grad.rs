@@ -761,9 +761,11 @@ fn write_chart(csv_path: &Path, threads: usize) -> anyhow::Result<()> {
 }
 
 /// Log-log panels, one per (case, size, parameter): x = seconds per forward+backward iteration, y = relative
-/// gradient error against FD (mean over seeds, bar = ± one standard deviation), one series per method; the
-/// dashed line is the truth's own relative standard error (errors near it are not resolved).
+/// gradient error against FD (mean over seeds, bar = ± one standard deviation), one series per method (its
+/// Pareto front as a line); the dashed line is the truth's own relative standard error (errors near it are not
+/// resolved).
 fn chart(csv: &str, threads: usize) -> String {
+    use psdr::report::chart::{grid, Line, Point as P, Series, XyChart};
     // (title, (method, point) list, truth's relative standard error)
     type Panel = (String, Vec<(String, Point)>, f64);
     let mut panels: Vec<Panel> = vec![];
@@ -792,126 +794,63 @@ fn chart(csv: &str, threads: usize) -> String {
         };
         panels[idx].1.push((f[3].to_string(), Point { secs: num(8), err: num(12), sd: num(13), label }));
     }
-    let (pw, ph, cols) = (460.0, 340.0, 2usize);
-    let rows = panels.len().div_ceil(cols).max(1);
-    let (w, h) = (pw * cols as f64 + 20.0, ph * rows as f64 + 130.0);
-    let mut s = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"11\">\n\
-<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n\
-<text x=\"10\" y=\"20\" font-size=\"14\">Gradient error against FD vs seconds per forward+backward iteration ({threads} CPU threads, \
-shared machine, best-of timings)</text>\n\
-<text x=\"10\" y=\"36\" fill=\"#555\">psdr labels: spp/sppe(k)/sppse; Mitsuba labels: spp. Bars: ± 1 sd over seeds. Dashed: truth's \
-relative standard error.</text>\n"
-    );
-    for (pi, (title, pts, floor)) in panels.iter().enumerate() {
-        let (ox, oy) = (10.0 + pw * (pi % cols) as f64, 50.0 + ph * (pi / cols) as f64);
-        let (l, r, t, b) = (ox + 55.0, ox + pw - 15.0, oy + 22.0, oy + ph - 40.0);
-        let good = |v: f64| v.is_finite() && v > 0.0;
-        let xs: Vec<f64> = pts.iter().map(|p| p.1.secs).filter(|&v| good(v)).collect();
-        let mut ys: Vec<f64> = pts.iter().map(|p| p.1.err).filter(|&v| good(v)).collect();
-        if good(*floor) {
-            ys.push(*floor);
-        }
-        if xs.is_empty() || ys.is_empty() {
-            continue;
-        }
-        let lo = |v: &[f64]| v.iter().cloned().fold(f64::INFINITY, f64::min).log10().floor();
-        let hi = |v: &[f64]| v.iter().cloned().fold(f64::NEG_INFINITY, f64::max).log10().ceil();
-        let (x0, x1) = (lo(&xs), hi(&xs).max(lo(&xs) + 1.0));
-        let (y0, y1) = (lo(&ys), hi(&ys).max(lo(&ys) + 1.0));
-        let px = |v: f64| l + (v.log10() - x0) / (x1 - x0) * (r - l);
-        let py = |v: f64| b - (v.max(10f64.powf(y0)).log10() - y0) / (y1 - y0) * (b - t);
-        let _ =
-            writeln!(s, "<text x=\"{}\" y=\"{}\" font-size=\"12\" font-weight=\"bold\">{title}</text>", l, oy + 14.0);
-        let _ = writeln!(
-            s,
-            "<rect x=\"{l}\" y=\"{t}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"#333\"/>",
-            r - l,
-            b - t
-        );
-        for e in x0 as i32..=x1 as i32 {
-            let x = px(10f64.powi(e));
-            let _ = writeln!(s, "<line x1=\"{x}\" y1=\"{t}\" x2=\"{x}\" y2=\"{b}\" stroke=\"#ddd\"/><text x=\"{x}\" y=\"{}\" text-anchor=\"middle\">{}</text>", b + 14.0, fmt_pow(e));
-        }
-        for e in y0 as i32..=y1 as i32 {
-            let y = py(10f64.powi(e));
-            let _ = writeln!(s, "<line x1=\"{l}\" y1=\"{y}\" x2=\"{r}\" y2=\"{y}\" stroke=\"#ddd\"/><text x=\"{}\" y=\"{}\" text-anchor=\"end\">{}</text>", l - 4.0, y + 4.0, fmt_pow(e));
-        }
-        let _ = writeln!(
-            s,
-            "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">seconds per iteration</text>",
-            (l + r) / 2.0,
-            b + 30.0
-        );
-        let _ = writeln!(
-            s,
-            "<text transform=\"translate({},{}) rotate(-90)\" text-anchor=\"middle\">relative error</text>",
-            ox + 14.0,
-            (t + b) / 2.0
-        );
-        if good(*floor) {
-            let y = py(*floor);
-            let _ = writeln!(
-                s,
-                "<line x1=\"{l}\" y1=\"{y}\" x2=\"{r}\" y2=\"{y}\" stroke=\"#000\" stroke-dasharray=\"4 3\"/>"
-            );
-        }
-        for (method, colour, _) in SERIES {
-            let mut series: Vec<&Point> =
-                pts.iter().filter(|p| p.0 == method).map(|p| &p.1).filter(|p| good(p.secs) && good(p.err)).collect();
-            series.sort_by(|a, b| a.secs.total_cmp(&b.secs));
-            // Pareto front (no faster point with lower error) as a line, labelled.
-            let mut front: Vec<&Point> = vec![];
-            for p in &series {
-                if front.last().is_none_or(|q| p.err < q.err) {
-                    front.push(p);
-                }
+    let good = |v: f64| v.is_finite() && v > 0.0;
+    let charts: Vec<XyChart> = panels
+        .iter()
+        .map(|(title, pts, floor)| {
+            let mut c = XyChart::new(title, "seconds per iteration", "relative error");
+            (c.log_x, c.log_y, c.width, c.height) = (true, true, 460.0, 360.0);
+            if good(*floor) {
+                c.hlines.push(*floor);
             }
-            let line: Vec<String> = front.iter().map(|p| format!("{:.1},{:.1}", px(p.secs), py(p.err))).collect();
-            if line.len() > 1 {
-                let _ = writeln!(
-                    s,
-                    "<polyline points=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.5\"/>",
-                    line.join(" ")
-                );
-            }
-            for p in &series {
-                let (x, y) = (px(p.secs), py(p.err));
-                if good(p.sd) {
-                    let _ = writeln!(s, "<line x1=\"{x:.1}\" y1=\"{:.1}\" x2=\"{x:.1}\" y2=\"{:.1}\" stroke=\"{colour}\" opacity=\"0.5\"/>", py(p.err + p.sd), py((p.err - p.sd).max(p.err * 0.05)));
+            for (method, colour, name) in SERIES {
+                let mut series: Vec<&Point> = pts
+                    .iter()
+                    .filter(|p| p.0 == method)
+                    .map(|p| &p.1)
+                    .filter(|p| good(p.secs) && good(p.err))
+                    .collect();
+                if series.is_empty() {
+                    continue;
                 }
-                let _ = writeln!(s, "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"3\" fill=\"{colour}\" opacity=\"0.8\"><title>{method} {}: {:.3} s, {:.3} ± {:.3}</title></circle>", p.label, p.secs, p.err, p.sd);
-                if method != "psdr" || front.iter().any(|q| std::ptr::eq(*q, *p)) {
-                    let _ = writeln!(
-                        s,
-                        "<text x=\"{:.1}\" y=\"{:.1}\" font-size=\"9\" fill=\"{colour}\">{}</text>",
-                        x + 4.0,
-                        y - 4.0,
-                        p.label
-                    );
+                series.sort_by(|a, b| a.secs.total_cmp(&b.secs));
+                // Pareto front (no faster point with lower error) as a line; psdr labels only its front points.
+                let mut front: Vec<&Point> = vec![];
+                for p in &series {
+                    if front.last().is_none_or(|q| p.err < q.err) {
+                        front.push(p);
+                    }
                 }
+                let mut line = Series::line(name, front.iter().map(|p| P::new(p.secs, p.err)).collect()).color(colour);
+                line.legend = false;
+                let points = series
+                    .iter()
+                    .map(|p| {
+                        let labelled = method != "psdr" || front.iter().any(|q| std::ptr::eq(*q, *p));
+                        P {
+                            x: p.secs,
+                            y: p.err,
+                            label: labelled.then(|| p.label.clone()),
+                            err: good(p.sd).then_some(p.sd),
+                        }
+                    })
+                    .collect();
+                let mut marks = Series::marked(name, points).color(colour);
+                (marks.line, marks.legend) = (Line::None, false);
+                c.series.extend([line, marks]);
             }
-        }
-    }
-    let ly = h - 70.0 + 10.0;
-    for (i, (_, colour, name)) in SERIES.iter().enumerate() {
-        let (x, y) = (20.0 + (i % 2) as f64 * 460.0, ly + (i / 2) as f64 * 18.0);
-        let _ = writeln!(
-            s,
-            "<circle cx=\"{x}\" cy=\"{}\" r=\"4\" fill=\"{colour}\"/><text x=\"{}\" y=\"{}\">{name}</text>",
-            y - 4.0,
-            x + 8.0,
-            y
-        );
-    }
-    s += "</svg>\n";
-    s
-}
-
-fn fmt_pow(e: i32) -> String {
-    match e {
-        -2..=0 => format!("{}", 10f64.powi(e)),
-        1..=3 => format!("{}", 10i64.pow(e as u32)),
-        _ => format!("1e{e}"),
-    }
+            c
+        })
+        .collect();
+    grid(
+        &format!(
+            "Gradient error against FD vs seconds per forward+backward iteration ({threads} CPU threads, shared machine, \
+             best-of timings)"
+        ),
+        "psdr labels: spp/sppe(k)/sppse; Mitsuba labels: spp. Bars: ± 1 sd over seeds. Dashed: truth's relative \
+         standard error.",
+        &charts,
+        2,
+        &SERIES.map(|(_, colour, name)| (name, colour)),
+    )
 }

@@ -82,38 +82,14 @@ fn main() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Horizontal bars, one row per material: forward (blue) and backward (orange) milliseconds at 512.
+/// Horizontal bars, one row per material: forward and backward milliseconds at 512.
 fn bar_chart(rows: &[(String, f64, f64)], threads: usize) -> String {
-    let (label_w, plot_w, row_h, top) = (170.0, 520.0, 14.0, 40.0);
-    let max = rows.iter().map(|r| r.1.max(r.2)).fold(1e-9, f64::max);
-    let h = top + row_h * rows.len() as f64 + 30.0;
-    let mut s = format!(
-        "<svg xmlns='http://www.w3.org/2000/svg' width='{}' height='{h}' font-family='sans-serif' font-size='10'>\n\
-         <rect width='100%' height='100%' fill='white'/>\n\
-         <text x='10' y='16' font-size='13'>Material graphs at 512x512: forward (blue) and backward (orange) ms, {threads} threads</text>\n",
-        label_w + plot_w + 60.0
-    );
-    for (i, (name, fwd, bwd)) in rows.iter().enumerate() {
-        let y = top + row_h * i as f64;
-        let (wf, wb) = (plot_w * fwd / max, plot_w * bwd / max);
-        s += &format!(
-            "<text x='{}' y='{}' text-anchor='end'>{name}</text>\n\
-             <rect x='{label_w}' y='{}' width='{wf:.1}' height='5' fill='#3b6fb6'/>\n\
-             <rect x='{label_w}' y='{}' width='{wb:.1}' height='5' fill='#e07b39'/>\n\
-             <text x='{:.1}' y='{}'>{fwd:.1} / {bwd:.1}</text>\n",
-            label_w - 4.0,
-            y + 9.0,
-            y + 1.0,
-            y + 6.5,
-            label_w + wf.max(wb) + 4.0,
-            y + 9.0
-        );
+    psdr::report::chart::BarChart {
+        title: format!("Material graphs at 512x512: forward and backward ms, {threads} threads"),
+        unit: "ms".into(),
+        series: vec!["forward".into(), "backward".into()],
+        rows: rows.iter().map(|(n, f, b)| (n.clone(), vec![*f, *b])).collect(),
+        stacked: false,
     }
-    s += &format!(
-        "<text x='{label_w}' y='{}'>0 ms</text><text x='{}' y='{}' text-anchor='end'>{max:.0} ms</text>\n</svg>\n",
-        h - 10.0,
-        label_w + plot_w,
-        h - 10.0
-    );
-    s
+    .svg()
 }

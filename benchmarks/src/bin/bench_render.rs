@@ -211,79 +211,29 @@ fn main() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Log-log scatter of seconds (x) against RMSE (y); one polyline per renderer and size, points labelled by spp.
+/// Log-log scatter of seconds (x) against RMSE (y); one line per renderer and size, points labelled by spp.
 fn chart(rows: &[Row], threads: usize) -> String {
-    let (x0, y0, pw, ph) = (70.0, 40.0, 520.0, 340.0);
-    let lx = |v: f64| v.log10();
-    let (xmin, xmax) = rows.iter().fold((f64::MAX, f64::MIN), |(a, b), r| (a.min(lx(r.seconds)), b.max(lx(r.seconds))));
-    let (ymin, ymax) = rows.iter().fold((f64::MAX, f64::MIN), |(a, b), r| (a.min(lx(r.rmse)), b.max(lx(r.rmse))));
-    let (xmin, xmax) = (xmin.floor(), xmax.ceil());
-    let (ymin, ymax) = (ymin.floor(), ymax.ceil());
-    let px = |v: f64| x0 + pw * (lx(v) - xmin) / (xmax - xmin);
-    let py = |v: f64| y0 + ph * (1.0 - (lx(v) - ymin) / (ymax - ymin));
-    let mut s = format!(
-        "<svg xmlns='http://www.w3.org/2000/svg' width='{}' height='{}' font-family='sans-serif' font-size='11'>\n\
-         <rect width='100%' height='100%' fill='white'/>\n\
-         <text x='{x0}' y='20' font-size='13'>Example room: render time vs RMSE against a converged reference ({threads} threads)</text>\n\
-         <rect x='{x0}' y='{y0}' width='{pw}' height='{ph}' fill='none' stroke='#888'/>\n",
-        x0 + pw + 170.0,
-        y0 + ph + 50.0
+    use psdr::report::chart::{Line, Point, Series, XyChart};
+    let mut c = XyChart::new(
+        &format!("Example room: render time vs RMSE against a converged reference ({threads} threads)"),
+        "seconds per frame (warm, best of N)",
+        "RMSE vs reference",
     );
-    for e in xmin as i32..=xmax as i32 {
-        let x = x0 + pw * (e as f64 - xmin) / (xmax - xmin);
-        s += &format!(
-            "<line x1='{x:.1}' y1='{y0}' x2='{x:.1}' y2='{}' stroke='#eee'/><text x='{x:.1}' y='{}' text-anchor='middle'>1e{e} s</text>\n",
-            y0 + ph,
-            y0 + ph + 16.0
-        );
-    }
-    for e in ymin as i32..=ymax as i32 {
-        let y = y0 + ph * (1.0 - (e as f64 - ymin) / (ymax - ymin));
-        s += &format!(
-            "<line x1='{x0}' y1='{y:.1}' x2='{}' y2='{y:.1}' stroke='#eee'/><text x='{}' y='{:.1}' text-anchor='end'>1e{e}</text>\n",
-            x0 + pw,
-            x0 - 6.0,
-            y + 4.0
-        );
-    }
-    s += &format!(
-        "<text x='{}' y='{}' text-anchor='middle'>seconds per frame (warm, best of N)</text>\n\
-         <text x='16' y='{}' transform='rotate(-90 16 {})' text-anchor='middle'>RMSE vs reference</text>\n",
-        x0 + pw / 2.0,
-        y0 + ph + 36.0,
-        y0 + ph / 2.0,
-        y0 + ph / 2.0
-    );
-    let mut legend_y = y0 + 10.0;
+    c.caption = "labels: spp".into();
+    (c.log_x, c.log_y, c.width, c.height, c.legend_right) = (true, true, 780.0, 430.0, true);
     for (renderer, colour) in [("psdr_cpu", "#3b6fb6"), ("mitsuba_llvm", "#e07b39")] {
         for (si, &(w, h)) in SIZES.iter().enumerate() {
-            let pts: Vec<&Row> = rows.iter().filter(|r| r.renderer == renderer && r.width == w).collect();
-            if pts.is_empty() {
-                continue;
+            let pts: Vec<Point> = rows
+                .iter()
+                .filter(|r| r.renderer == renderer && r.width == w)
+                .map(|r| Point::labelled(r.seconds, r.rmse, r.spp.to_string()))
+                .collect();
+            if !pts.is_empty() {
+                let mut series = Series::marked(format!("{renderer} {w}x{h}"), pts).color(colour);
+                series.line = if si == 0 { Line::Solid } else { Line::Dashed };
+                c.series.push(series);
             }
-            let dash = if si == 0 { "" } else { " stroke-dasharray='5 3'" };
-            let line: Vec<String> = pts.iter().map(|r| format!("{:.1},{:.1}", px(r.seconds), py(r.rmse))).collect();
-            s += &format!("<polyline points='{}' fill='none' stroke='{colour}'{dash}/>\n", line.join(" "));
-            for r in &pts {
-                let (x, y) = (px(r.seconds), py(r.rmse));
-                s += &format!(
-                    "<circle cx='{x:.1}' cy='{y:.1}' r='3.5' fill='{colour}'/><text x='{:.1}' y='{:.1}' font-size='9'>{}</text>\n",
-                    x + 5.0,
-                    y - 5.0,
-                    r.spp
-                );
-            }
-            s += &format!(
-                "<line x1='{}' y1='{legend_y}' x2='{}' y2='{legend_y}' stroke='{colour}' stroke-width='2'{dash}/>\
-                 <text x='{}' y='{}'>{renderer} {w}x{h}</text>\n",
-                x0 + pw + 10.0,
-                x0 + pw + 35.0,
-                x0 + pw + 40.0,
-                legend_y + 4.0
-            );
-            legend_y += 18.0;
         }
     }
-    s += &format!("<text x='{}' y='{}' font-size='9'>labels: spp</text>\n</svg>\n", x0 + pw + 10.0, legend_y + 6.0);
-    s
+    c.svg() + "\n"
 }

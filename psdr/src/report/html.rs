@@ -1,7 +1,7 @@
 //! `report.html`: one self-contained page per run (images embedded as base64 PNG, charts as inline SVG, no
 //! scripts), readable offline: per stage its images, loss curves, parameter trajectories, timings and events.
 
-use super::chart::{LineChart, Series};
+use super::chart::{Point, Series, XyChart};
 use crate::error::{Error, Result};
 use base64::Engine as _;
 use serde::{Deserialize, Serialize};
@@ -86,17 +86,16 @@ const MAX_COMPONENTS: usize = 12;
 fn optimization_html(o: &OptimizationReport) -> String {
     let mut s = String::new();
     let _ = write!(s, "<h3>{}</h3>", esc(&o.label));
-    let mut loss = LineChart::new("loss", "iteration", "loss");
+    let mut loss = XyChart::new("loss", "iteration", "loss");
     loss.log_y = o.iterations.iter().all(|r| r.loss > 0.0 || r.loss.is_nan());
-    loss.series.push(Series {
-        name: "total".into(),
-        points: o.iterations.iter().map(|r| (r.iteration as f64, r.loss)).collect(),
-    });
+    loss.series
+        .push(Series::line("total", o.iterations.iter().map(|r| Point::new(r.iteration as f64, r.loss)).collect()));
     let term_names: Vec<String> =
         o.iterations.first().map(|r| r.terms.iter().map(|t| t.0.clone()).collect()).unwrap_or_default();
     for (k, name) in term_names.iter().enumerate() {
-        let points = o.iterations.iter().filter_map(|r| r.terms.get(k).map(|t| (r.iteration as f64, t.1))).collect();
-        loss.series.push(Series { name: name.clone(), points });
+        let points =
+            o.iterations.iter().filter_map(|r| r.terms.get(k).map(|t| Point::new(r.iteration as f64, t.1))).collect();
+        loss.series.push(Series::line(name.clone(), points));
     }
     s.push_str("<div class=\"charts\">");
     s.push_str(&loss.svg());
@@ -106,14 +105,16 @@ fn optimization_html(o: &OptimizationReport) -> String {
             continue;
         }
         let title = if n > MAX_COMPONENTS { format!("{name} (first {MAX_COMPONENTS} of {n})") } else { name.clone() };
-        let mut c = LineChart::new(&title, "iteration", "value");
+        let mut c = XyChart::new(&title, "iteration", "value");
         for k in 0..n.min(MAX_COMPONENTS) {
             let points = o
                 .iterations
                 .iter()
-                .filter_map(|r| r.values.get(p).and_then(|v| v.get(k)).map(|v| (r.iteration as f64, *v as f64)))
+                .filter_map(|r| {
+                    r.values.get(p).and_then(|v| v.get(k)).map(|v| Point::new(r.iteration as f64, *v as f64))
+                })
                 .collect();
-            c.series.push(Series { name: format!("[{k}]"), points });
+            c.series.push(Series::line(format!("[{k}]"), points));
         }
         s.push_str(&c.svg());
     }
