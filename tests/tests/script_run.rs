@@ -243,7 +243,7 @@ fn walk(dir: &Path) -> Vec<PathBuf> {
 
 /// `--resume` after killing a run mid-stage finishes with the same result as an uninterrupted run: the
 /// finished stage is loaded from disk, the interrupted optimisation continues from its checkpoint with the
-/// same moments, rates and seeds. Bit-identical parameters.
+/// same moments, rates and seeds. Bit-identical parameters. `--from STAGE` reruns from a stage on.
 #[test]
 fn resume_after_a_kill_gives_the_uninterrupted_result() {
     let Some(bin) = psdr_tests::psdr_bin() else {
@@ -307,4 +307,13 @@ fn resume_after_a_kill_gives_the_uninterrupted_result() {
     let (a, b) = (result_json(&whole), result_json(&cut));
     assert_eq!(a["recorded"], b["recorded"], "resumed run differs from the uninterrupted one");
     assert_eq!(b["stages"][0]["status"], "loaded");
+    // --from pose: the first stage is loaded, the second runs again from scratch, to the same result.
+    let out = cmd(&cut, &["--from", "pose"]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let c = result_json(&cut);
+    assert_eq!((c["stages"][0]["status"].as_str(), c["stages"][1]["status"].as_str()), (Some("loaded"), Some("done")));
+    assert_eq!(a["recorded"], c["recorded"]);
+    // --from a stage whose predecessors never finished is refused by name.
+    let e = cmd(&dir.join("empty"), &["--from", "pose"]).output().unwrap();
+    assert!(!e.status.success() && String::from_utf8_lossy(&e.stderr).contains("01_light"));
 }
