@@ -202,6 +202,13 @@ fn bad_input_gets_a_clear_error() {
         ),
         ("runaway", "let i = 0; loop { i += 1; }", "operations"),
         (
+            "closure",
+            "let s = load_scene(PHOTO_DIR + \"/start.json\"); s.set_resolution(16, 12);\n\
+            optimize(s, #{ params: [\"light/light/radiance\"], iters: 1,\n\
+            loss: |r| l1(r.radiance) });",
+            "script.rhai:3:",
+        ),
+        (
             "option",
             r#"let s = load_scene(PHOTO_DIR + "/start.json");
             optimize(s, #{ params: ["light/light/radiance"], iterations: 3, loss: |r| mean(r.radiance) });"#,

@@ -1,7 +1,7 @@
 //! `report.html`: one self-contained page per run (images embedded as base64 PNG, charts as inline SVG, no
 //! scripts), readable offline: per stage its images, loss curves, parameter trajectories, timings and events.
 
-use super::chart::{Point, Series, XyChart};
+use super::chart::{esc, Point, Series, XyChart};
 use crate::error::{Error, Result};
 use base64::Engine as _;
 use serde::{Deserialize, Serialize};
@@ -74,10 +74,6 @@ fn null_as_nan<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f6
 
 fn terms_null_as_nan<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Vec<(String, f64)>, D::Error> {
     Ok(Vec::<(String, Option<f64>)>::deserialize(d)?.into_iter().map(|(n, v)| (n, v.unwrap_or(f64::NAN))).collect())
-}
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;").replace('\'', "&#39;")
 }
 
 /// Components of a parameter shown in its trajectory chart.

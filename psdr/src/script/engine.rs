@@ -23,20 +23,27 @@ pub fn rhai_err(e: Error) -> Box<EvalAltResult> {
 /// in Rust calls, each one operation), far below a runaway loop's minutes.
 pub const MAX_OPERATIONS: u64 = 50_000_000;
 
-/// A script error as one line: `SCRIPT:LINE:COLUMN: message`.
+/// A script error as one line: `SCRIPT:LINE:COLUMN: message`, at the innermost position (an error inside a
+/// loss closure points into the closure, not at the `optimize` call that ran it).
 pub fn script_error(script: &Path, e: &EvalAltResult) -> Error {
-    let pos = e.position();
-    let mut msg = e.to_string();
+    let mut inner = e;
+    let mut called_from = None;
+    while let EvalAltResult::ErrorInFunctionCall(_, _, next, at) = inner {
+        called_from = called_from.or(at.line());
+        inner = next;
+    }
+    let pos = inner.position();
+    let mut msg = inner.to_string();
     // Rhai appends " (line L, position C)" itself; we lead with it instead.
     if let Some(i) = msg.rfind(" (line ") {
         msg.truncate(i);
     }
-    let msg = match e {
-        EvalAltResult::ErrorTooManyOperations(..) => {
-            format!("{msg}: the script ran more than {MAX_OPERATIONS} operations (an endless loop?) and was stopped")
-        }
-        _ => msg,
-    };
+    if let EvalAltResult::ErrorTooManyOperations(..) = inner {
+        msg = format!("{msg}: the script ran more than {MAX_OPERATIONS} operations (an endless loop?) and was stopped");
+    }
+    if let Some(line) = called_from.filter(|l| Some(*l) != pos.line()) {
+        msg = format!("{msg} (in a function called from line {line})");
+    }
     match (pos.line(), pos.position()) {
         (Some(l), Some(c)) => Error::Invalid(format!("{}:{l}:{c}: {msg}", script.display())),
         (Some(l), None) => Error::Invalid(format!("{}:{l}: {msg}", script.display())),

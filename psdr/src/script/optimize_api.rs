@@ -218,10 +218,7 @@ fn terms_of(v: Dynamic) -> Result<Vec<(String, Tensor)>> {
 fn run_optimize(ctx: &NativeCallContext, run: &RunRef, scene: &mut Scene, opts: &Map) -> Rr<Map> {
     let specs = specs(scene, opts).map_err(rhai_err)?;
     let mut o = options(opts).map_err(rhai_err)?;
-    let loss_fn: FnPtr = opts.get("loss").and_then(|v| v.clone().try_cast::<FnPtr>()).ok_or_else(|| {
-        rhai_err(Error::Invalid("optimize: 'loss' must be a closure, e.g. |r| l2(r.radiance, target)".into()))
-    })?;
-    let targets = opts.get("targets").cloned();
+    let loss = ScriptLoss::from_options(opts, "optimize")?;
     let label = opts.get("label").and_then(|v| v.clone().into_string().ok());
     let (quiet, stage_name) = {
         let mut c = run.borrow_mut();
@@ -237,14 +234,8 @@ fn run_optimize(ctx: &NativeCallContext, run: &RunRef, scene: &mut Scene, opts: 
     let label = label.unwrap_or_else(|| {
         format!("optimize {}", specs.iter().map(|s| s.path.to_string()).collect::<Vec<_>>().join(", "))
     });
-    let mut backend = run
-        .borrow_mut()
-        .backend
-        .take()
-        .ok_or_else(|| rhai_err(Error::Invalid("optimize() cannot run inside a loss closure".into())))?;
-    // The closure's own script error, kept with its position to report instead of a flattened message.
-    let script_error: RefCell<Option<Box<EvalAltResult>>> = RefCell::new(None);
-    let mut call = |r: Rc<Rendered>| call_loss(ctx, &loss_fn, &targets, r, &script_error);
+    let mut backend = take_backend(run, "optimize")?;
+    let mut call = |r: Rc<Rendered>| loss.call(ctx, r);
     let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(o.iters as u64) };
     bar.set_style(
         ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} {per_sec} {msg}")
@@ -262,14 +253,7 @@ fn run_optimize(ctx: &NativeCallContext, run: &RunRef, scene: &mut Scene, opts: 
     let outcome = optimize(scene, &specs, &mut call, &o, backend.as_mut(), &mut observe);
     bar.finish_and_clear();
     run.borrow_mut().backend = Some(backend);
-    let outcome = match outcome {
-        Ok(x) => x,
-        // A failing loss closure reports its own script error (with its line and column).
-        Err(e) if e.to_string().starts_with("the loss closure failed") => {
-            return Err(script_error.take().unwrap_or_else(|| rhai_err(e)))
-        }
-        Err(e) => return Err(rhai_err(e)),
-    };
+    let outcome = outcome.map_err(|e| loss.error(e))?;
     if !quiet {
         for e in &outcome.events {
             eprintln!("  {e}");
@@ -308,27 +292,12 @@ fn run_gradient(ctx: &NativeCallContext, run: &RunRef, scene: &Scene, opts: &Map
     let specs = specs(scene, opts).map_err(rhai_err)?;
     let o = options(opts).map_err(rhai_err)?;
     let paths: Vec<_> = specs.iter().map(|s| s.path.clone()).collect();
-    let loss_fn: FnPtr = opts
-        .get("loss")
-        .and_then(|v| v.clone().try_cast::<FnPtr>())
-        .ok_or_else(|| rhai_err(Error::Invalid("gradient: 'loss' must be a closure".into())))?;
-    let targets = opts.get("targets").cloned();
-    let mut backend = run
-        .borrow_mut()
-        .backend
-        .take()
-        .ok_or_else(|| rhai_err(Error::Invalid("gradient() cannot run inside a loss closure".into())))?;
-    let script_error: RefCell<Option<Box<EvalAltResult>>> = RefCell::new(None);
-    let mut call = |r: Rc<Rendered>| call_loss(ctx, &loss_fn, &targets, r, &script_error);
+    let loss = ScriptLoss::from_options(opts, "gradient")?;
+    let mut backend = take_backend(run, "gradient")?;
+    let mut call = |r: Rc<Rendered>| loss.call(ctx, r);
     let e = crate::optim::gradient(scene, &paths, &mut call, &o, backend.as_mut());
     run.borrow_mut().backend = Some(backend);
-    let e = match e {
-        Ok(e) => e,
-        Err(e) if e.to_string().starts_with("the loss closure failed") => {
-            return Err(script_error.take().unwrap_or_else(|| rhai_err(e)))
-        }
-        Err(e) => return Err(rhai_err(e)),
-    };
+    let e = e.map_err(|e| loss.error(e))?;
     let mut grad = Map::new();
     let mut at = 0;
     for p in &paths {
@@ -346,27 +315,56 @@ fn run_gradient(ctx: &NativeCallContext, run: &RunRef, scene: &Scene, opts: &Map
     Ok(out)
 }
 
-/// Calls the script's loss closure on a render: `|r|`, or `|r, t|` when the options hold `targets`.
-fn call_loss(
-    ctx: &NativeCallContext,
-    loss_fn: &FnPtr,
-    targets: &Option<Dynamic>,
-    r: Rc<Rendered>,
-    script_error: &RefCell<Option<Box<EvalAltResult>>>,
-) -> Result<Vec<(String, Tensor)>> {
-    let handle = RenderHandle(r);
-    let value = match targets {
-        Some(t) => loss_fn.call_within_context::<Dynamic>(ctx, (handle, t.clone())),
-        None => loss_fn.call_within_context::<Dynamic>(ctx, (handle,)),
-    };
-    match value {
-        Ok(v) => terms_of(v),
-        Err(e) => {
-            let msg = e.to_string();
-            *script_error.borrow_mut() = Some(e);
-            Err(Error::Invalid(format!("the loss closure failed: {msg}")))
+/// The script's loss closure with what it needs: `|r|`, or `|r, t|` when the options hold `targets`.
+struct ScriptLoss {
+    f: FnPtr,
+    targets: Option<Dynamic>,
+    /// The closure's own script error, kept with its position to report instead of a flattened message.
+    error: RefCell<Option<Box<EvalAltResult>>>,
+}
+
+/// The message that marks a psdr error as the loss closure's.
+const CLOSURE_FAILED: &str = "the loss closure failed";
+
+impl ScriptLoss {
+    fn from_options(opts: &Map, who: &str) -> Rr<ScriptLoss> {
+        let f = opts.get("loss").and_then(|v| v.clone().try_cast::<FnPtr>()).ok_or_else(|| {
+            rhai_err(Error::Invalid(format!("{who}: 'loss' must be a closure, e.g. |r| l2(r.radiance, target)")))
+        })?;
+        Ok(ScriptLoss { f, targets: opts.get("targets").cloned(), error: RefCell::new(None) })
+    }
+
+    fn call(&self, ctx: &NativeCallContext, r: Rc<Rendered>) -> Result<Vec<(String, Tensor)>> {
+        let handle = RenderHandle(r);
+        let value = match &self.targets {
+            Some(t) => self.f.call_within_context::<Dynamic>(ctx, (handle, t.clone())),
+            None => self.f.call_within_context::<Dynamic>(ctx, (handle,)),
+        };
+        match value {
+            Ok(v) => terms_of(v),
+            Err(e) => {
+                let msg = e.to_string();
+                *self.error.borrow_mut() = Some(e);
+                Err(Error::Invalid(format!("{CLOSURE_FAILED}: {msg}")))
+            }
         }
     }
+
+    /// A failing loss closure reports its own script error (with its line and column).
+    fn error(&self, e: Error) -> Box<EvalAltResult> {
+        match self.error.take() {
+            Some(script) if e.to_string().starts_with(CLOSURE_FAILED) => script,
+            _ => rhai_err(e),
+        }
+    }
+}
+
+/// The run's backend, out of the context while an optimisation runs (a loss closure must not render).
+fn take_backend(run: &RunRef, who: &str) -> Rr<Box<dyn crate::backend::Backend>> {
+    run.borrow_mut()
+        .backend
+        .take()
+        .ok_or_else(|| rhai_err(Error::Invalid(format!("{who}() cannot run inside a loss closure"))))
 }
 
 pub fn register(engine: &mut Engine, run: &RunRef) {
