@@ -87,8 +87,10 @@ pub struct XyChart {
 /// Tick values for [lo, hi] in axis units (decades on a log axis).
 fn ticks(lo: f64, hi: f64, log: bool) -> Vec<f64> {
     if log {
+        // Decades, and 2 and 5 times them when the axis spans two decades or less.
+        let steps: &[f64] = if hi - lo <= 2.0 { &[1.0, 2.0, 5.0] } else { &[1.0] };
         return (lo.floor() as i32..=hi.ceil() as i32)
-            .map(f64::from)
+            .flat_map(|e| steps.iter().map(move |m| f64::from(e) + m.log10()))
             .filter(|v| *v >= lo - 1e-9 && *v <= hi + 1e-9)
             .collect();
     }
