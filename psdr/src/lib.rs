@@ -2,7 +2,9 @@
 //!
 //! Where things are: `scene` (the scene model and its JSON file), `render` (flattened buffers and the CPU
 //! twins of the GLSL kernels), `backend` (CPU and Vulkan behind one interface), `output` (EXR/PNG),
-//! `export` (Mitsuba 3), `cli` (the `psdr` binary's commands).
+//! `export` (Mitsuba 3), `grad` (derivatives), `loss` (the image-loss tape), `optim` (parameters, Adam, the
+//! optimisation loop), `script` (Rhai stage scripts, `psdr run`), `report` (charts, report.html), `vision`
+//! (photo observations), `cli` (the `psdr` binary's commands).
 
 pub mod backend;
 pub mod cli;
@@ -16,5 +18,6 @@ pub mod render;
 pub mod report;
 pub mod scene;
 pub mod script;
+pub mod vision;
 
 pub use error::{Error, Result};

@@ -3,6 +3,7 @@
 mod export_cmd;
 mod grad_cmd;
 mod materials_cmd;
+mod observe_cmd;
 mod render_cmd;
 mod run_cmd;
 
@@ -28,6 +29,8 @@ enum Command {
     Export(export_cmd::ExportArgs),
     /// Gradient of an image loss with respect to one scene parameter.
     Grad(grad_cmd::GradArgs),
+    /// Resolve a photo's observations (depth, segmentation, field of view) and write them for inspection.
+    Observe(observe_cmd::ObserveArgs),
     /// Run a stage script (Rhai) on a photo: optimisation stages, checkpoints, result.json, report.html.
     Run(run_cmd::RunArgs),
     /// The procedural material library: list, render maps, contact sheet.
@@ -42,6 +45,7 @@ pub fn main() -> ExitCode {
         Command::Materials(a) => materials_cmd::run(a),
         Command::Grad(a) => grad_cmd::run(a),
         Command::Run(a) => run_cmd::run(a),
+        Command::Observe(a) => observe_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

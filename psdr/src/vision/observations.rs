@@ -1,0 +1,269 @@
+//! Resolving a photo's observations: for each quantity (depth, instance masks with labels, field of view)
+//! the first source that exists: a command-line flag, else a file beside the photo by its stem
+//! (`STEM.depth.exr` or `.depth.png`, `STEM.masks.png` + `STEM.labels.json`, `STEM.camera.json`). A quantity a
+//! stage needs but nothing supplies is an error that lists the ways to supply it. `write` is `psdr observe`.
+
+use super::depth::{load_depth, Depth, DepthUnits};
+use super::masks::{load_instances, Instances};
+use super::photo::load_photo;
+use crate::error::{Error, Result};
+use crate::loss::Image;
+use serde_json::json;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Where observations may come from besides the files beside the photo.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObservationInputs {
+    pub photo: PathBuf,
+    pub depth: Option<PathBuf>,
+    pub depth_units: DepthUnits,
+    pub masks: Option<PathBuf>,
+    pub labels: Option<PathBuf>,
+    pub fov_y_deg: Option<f32>,
+}
+
+impl ObservationInputs {
+    pub fn new(photo: &Path) -> ObservationInputs {
+        ObservationInputs {
+            photo: photo.to_path_buf(),
+            depth: None,
+            depth_units: DepthUnits::Metres,
+            masks: None,
+            labels: None,
+            fov_y_deg: None,
+        }
+    }
+
+    /// `STEM.suffix` beside the photo.
+    fn beside(&self, suffix: &str) -> PathBuf {
+        let stem = self.photo.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        self.photo.with_file_name(format!("{stem}.{suffix}"))
+    }
+}
+
+/// The resolved observations of one photo.
+#[derive(Clone, Debug)]
+pub struct Observations {
+    pub photo_path: PathBuf,
+    /// Linear RGB.
+    pub photo: Image,
+    pub depth: Option<Depth>,
+    pub instances: Option<Instances>,
+    pub fov_y_deg: Option<f32>,
+    /// Quantity -> where it came from ("flag --depth x.exr", "file room.depth.exr").
+    pub sources: BTreeMap<String, String>,
+}
+
+fn check_size(what: &str, path: &Path, (w, h): (usize, usize), photo: &Image) -> Result<()> {
+    if (w, h) != (photo.width, photo.height) {
+        return Err(Error::io(
+            path,
+            format!(
+                "the {what} is {w}x{h} but the photo is {}x{}; they must be the same size",
+                photo.width, photo.height
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Reads `{"fov_y_deg": ...}`.
+fn load_camera(path: &Path) -> Result<f32> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::io(path, e))?;
+    let fov = v
+        .get("fov_y_deg")
+        .and_then(|f| f.as_f64())
+        .ok_or_else(|| Error::io(path, "expected {\"fov_y_deg\": <vertical field of view in degrees>}"))?
+        as f32;
+    check_fov(fov).map_err(|m| Error::io(path, m))
+}
+
+fn check_fov(fov: f32) -> std::result::Result<f32, String> {
+    if fov.is_finite() && fov > 1.0 && fov < 179.0 {
+        Ok(fov)
+    } else {
+        Err(format!("vertical field of view {fov} degrees is not in (1, 179)"))
+    }
+}
+
+impl Observations {
+    /// Loads the photo and every quantity that has a source; checks that all images have the photo's size.
+    pub fn resolve(inputs: &ObservationInputs) -> Result<Observations> {
+        let photo = load_photo(&inputs.photo)?;
+        let mut sources = BTreeMap::new();
+        sources.insert("photo".to_string(), format!("file {}", inputs.photo.display()));
+        let pick = |flag: &Option<PathBuf>, beside: &[PathBuf]| -> Option<(PathBuf, String)> {
+            match flag {
+                Some(p) => Some((p.clone(), format!("flag {}", p.display()))),
+                None => beside.iter().find(|p| p.is_file()).map(|p| (p.clone(), format!("file {}", p.display()))),
+            }
+        };
+        let depth = match pick(&inputs.depth, &[inputs.beside("depth.exr"), inputs.beside("depth.png")]) {
+            Some((p, src)) => {
+                let d = load_depth(&p, inputs.depth_units)?;
+                check_size("depth map", &p, (d.image.width, d.image.height), &photo)?;
+                let units = format!("{:?}", inputs.depth_units).to_lowercase();
+                sources.insert("depth".into(), format!("{src} ({units})"));
+                Some(d)
+            }
+            None => None,
+        };
+        let instances = match pick(&inputs.masks, &[inputs.beside("masks.png")]) {
+            Some((p, src)) => {
+                let labels =
+                    inputs.labels.clone().or_else(|| Some(inputs.beside("labels.json")).filter(|l| l.is_file()));
+                let m = load_instances(&p, labels.as_deref(), Some((photo.width, photo.height)))?;
+                check_size("instance mask", &p, (m.width, m.height), &photo)?;
+                sources.insert(
+                    "instances".into(),
+                    format!(
+                        "{src}, labels {}",
+                        labels.map_or("none (every instance is an object)".into(), |l| l.display().to_string())
+                    ),
+                );
+                Some(m)
+            }
+            None => None,
+        };
+        let fov_y_deg = match (inputs.fov_y_deg, inputs.beside("camera.json")) {
+            (Some(f), _) => {
+                let f = check_fov(f).map_err(|m| Error::Invalid(format!("--fov: {m}")))?;
+                sources.insert("fov".into(), format!("flag --fov {f}"));
+                Some(f)
+            }
+            (None, p) if p.is_file() => {
+                let f = load_camera(&p)?;
+                sources.insert("fov".into(), format!("file {}", p.display()));
+                Some(f)
+            }
+            _ => None,
+        };
+        Ok(Observations { photo_path: inputs.photo.clone(), photo, depth, instances, fov_y_deg, sources })
+    }
+
+    fn stem(&self) -> String {
+        self.photo_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "photo".into())
+    }
+
+    /// The depth, or an error listing how to supply it.
+    pub fn require_depth(&self) -> Result<&Depth> {
+        self.depth.as_ref().ok_or_else(|| {
+            Error::Invalid(format!(
+                "no depth for {}: put {s}.depth.exr (or a 16-bit {s}.depth.png) beside the photo, or pass --depth FILE \
+                 (--depth-units metres|relative)",
+                self.photo_path.display(),
+                s = self.stem()
+            ))
+        })
+    }
+
+    /// The instances, or an error listing how to supply them.
+    pub fn require_instances(&self) -> Result<&Instances> {
+        self.instances.as_ref().ok_or_else(|| {
+            Error::Invalid(format!(
+                "no segmentation for {}: put {s}.masks.png (16-bit instance ids, 0 = none) and {s}.labels.json \
+                 ({{\"<id>\": \"<class>\"}}) beside the photo, or pass --masks FILE --labels FILE",
+                self.photo_path.display(),
+                s = self.stem()
+            ))
+        })
+    }
+
+    /// The vertical field of view, or an error listing how to supply it.
+    pub fn require_fov(&self) -> Result<f32> {
+        self.fov_y_deg.ok_or_else(|| {
+            Error::Invalid(format!(
+                "no field of view for {}: put {}.camera.json ({{\"fov_y_deg\": 60}}) beside the photo, or pass --fov DEGREES",
+                self.photo_path.display(),
+                self.stem()
+            ))
+        })
+    }
+
+    /// Writes the resolved observations into `dir` under the photo's stem, in the formats they are read from
+    /// (so the folder can be edited and fed back), plus a colour-coded overlay of the instances and
+    /// `observations.json` (sources, instances with classes and pixel counts).
+    pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>> {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        let s = self.stem();
+        let (w, h) = (self.photo.width as u32, self.photo.height as u32);
+        let mut written = vec![];
+        let photo = dir.join(format!("{s}.png"));
+        crate::output::write_png_srgb(&photo, w, h, &self.photo.data)?;
+        written.push(photo);
+        if let Some(d) = &self.depth {
+            let p = dir.join(format!("{s}.depth.exr"));
+            crate::output::write_atomically(&p, |tmp| {
+                crate::output::write_exr_channels(tmp, w, h, &[("Z".to_string(), d.image.data.clone())])
+            })?;
+            written.push(p);
+        }
+        if let Some(m) = &self.instances {
+            let p = dir.join(format!("{s}.masks.png"));
+            let img = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, m.ids.clone())
+                .ok_or_else(|| Error::io(&p, "mask size mismatch"))?;
+            crate::output::write_atomically(&p, |tmp| {
+                img.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| Error::io(tmp, e))
+            })?;
+            written.push(p);
+            let labels: BTreeMap<String, String> =
+                m.instances.iter().map(|i| (i.id.to_string(), i.class.clone())).collect();
+            let p = dir.join(format!("{s}.labels.json"));
+            write_json(&p, &json!(labels))?;
+            written.push(p);
+            let p = dir.join(format!("{s}.overlay.png"));
+            crate::output::write_png_srgb(&p, w, h, &overlay(&self.photo, m))?;
+            written.push(p);
+        }
+        if let Some(f) = self.fov_y_deg {
+            let p = dir.join(format!("{s}.camera.json"));
+            write_json(&p, &json!({ "fov_y_deg": f }))?;
+            written.push(p);
+        }
+        let p = dir.join("observations.json");
+        let summary = json!({
+            "photo": self.photo_path, "width": w, "height": h, "sources": self.sources,
+            "fov_y_deg": self.fov_y_deg,
+            "depth": self.depth.as_ref().map(|d| json!({"units": d.units, "missing_pixels": d.missing})),
+            "instances": self.instances.as_ref().map(|m| &m.instances),
+        });
+        write_json(&p, &summary)?;
+        written.push(p);
+        Ok(written)
+    }
+}
+
+fn write_json(path: &Path, v: &serde_json::Value) -> Result<()> {
+    let text = serde_json::to_string_pretty(v).map_err(|e| Error::io(path, e))?;
+    crate::output::write_atomically(path, |tmp| std::fs::write(tmp, &text).map_err(|e| Error::io(tmp, e)))
+}
+
+/// The photo with each instance tinted by a colour of its own (structure classes in greys and blues), linear.
+fn overlay(photo: &Image, m: &Instances) -> Vec<f32> {
+    let colour = |id: u16| -> [f32; 3] {
+        let class = m.instances.iter().find(|i| i.id == id).map_or("", |i| i.class.as_str());
+        match class {
+            "floor" => [0.35, 0.2, 0.05],
+            "wall" => [0.3, 0.3, 0.3],
+            "ceiling" => [0.6, 0.6, 0.7],
+            _ => {
+                // A hashed hue per instance.
+                let hsh = (id as u32).wrapping_mul(2654435761) >> 16;
+                let f = |k: u32| ((hsh >> (k * 5)) & 31) as f32 / 31.0 * 0.8 + 0.1;
+                [f(0), f(1), f(2)]
+            }
+        }
+    };
+    let mut out = photo.data.clone();
+    for (p, &id) in m.ids.iter().enumerate() {
+        if id != 0 {
+            let c = colour(id);
+            for k in 0..3 {
+                out[p * 3 + k] = 0.5 * out[p * 3 + k] + 0.5 * c[k];
+            }
+        }
+    }
+    out
+}
