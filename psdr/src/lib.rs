@@ -18,6 +18,7 @@ pub mod render;
 pub mod report;
 pub mod scene;
 pub mod script;
+pub mod stages;
 pub mod vision;
 
 pub use error::{Error, Result};

@@ -1,0 +1,168 @@
+//! The room box from depth and segmentation (PSDR-Room, "Room stage", initialisation): the floor plane by
+//! RANSAC on the floor's points, the Manhattan wall directions from the walls' normals, each wall at the
+//! median offset of its points, the height from the ceiling's points (else 1.2x the highest point seen). A
+//! wall that is not seen is put at the camera (photos are taken from a room's edge), or beyond every point
+//! seen in its direction. The camera's height, pitch and roll come out of the floor plane.
+
+use super::plane_fit::ransac_plane;
+use super::point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};
+use crate::error::{Error, Result};
+use glam::{Mat4, Vec3, Vec4};
+
+/// Knobs of the initialisation (a script passes its own).
+#[derive(Clone, Debug)]
+pub struct RoomInitOptions {
+    /// Pixels removed from each mask's border before points are taken.
+    pub erode: usize,
+    /// RANSAC inlier distance as a fraction of the median depth.
+    pub plane_tolerance: f32,
+    pub ransac_iters: usize,
+    pub seed: u64,
+    /// A wall point's normal must be within this angle (degrees) of a Manhattan axis to place that wall.
+    pub wall_angle_deg: f32,
+}
+
+impl Default for RoomInitOptions {
+    fn default() -> Self {
+        RoomInitOptions { erode: 1, plane_tolerance: 0.01, ransac_iters: 300, seed: 1, wall_angle_deg: 20.0 }
+    }
+}
+
+/// The initial room: an axis-aligned box in a world frame whose y is up, floor at y = 0, and the camera.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RoomEstimate {
+    /// Extents along world x (width) and z (depth), and height.
+    pub width: f32,
+    pub depth: f32,
+    pub height: f32,
+    /// The box spans x in [x_min, x_min + width], z in [z_min, z_min + depth].
+    pub x_min: f32,
+    pub z_min: f32,
+    /// Camera-to-world (OpenGL convention: the camera looks down its -z), camera at (0, height, 0).
+    pub camera_to_world: [[f32; 4]; 4],
+    pub camera_height: f32,
+    pub pitch_deg: f32,
+    pub roll_deg: f32,
+    /// Walls at -x, +x, -z, +z: placed from their own points (true) or by the fallback (false).
+    pub walls_seen: [bool; 4],
+    pub ceiling_seen: bool,
+    pub floor_inliers: usize,
+}
+
+fn median(mut v: Vec<f32>) -> Option<f32> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f32::total_cmp);
+    Some(v[v.len() / 2])
+}
+
+/// Estimates the room box. `depth`: camera-space z per pixel (0 = none, metric or of any common scale);
+/// `floor`, `walls`, `ceiling`: per-pixel class masks.
+pub fn init_room(
+    depth: &[f32],
+    floor: &[bool],
+    walls: &[bool],
+    ceiling: &[bool],
+    k: &Intrinsics,
+    opts: &RoomInitOptions,
+) -> Result<RoomEstimate> {
+    let (w, h) = (k.width, k.height);
+    let pts = |m: &[bool]| surface_points(depth, &erode(m, w, h, opts.erode), k);
+    let (floor_pts, wall_pts, ceil_pts) = (pts(floor), pts(walls), pts(ceiling));
+    if floor_pts.len() < 20 {
+        return Err(Error::Invalid(format!(
+            "room: only {} floor pixels with depth; the floor must be visible to place the room",
+            floor_pts.len()
+        )));
+    }
+    let zs = median(floor_pts.iter().chain(&wall_pts).map(|s| s.p.z).collect()).unwrap_or(1.0);
+    let positions: Vec<Vec3> = floor_pts.iter().map(|s| s.p).collect();
+    let (plane, inliers) = ransac_plane(&positions, opts.plane_tolerance * zs, opts.ransac_iters, opts.seed)
+        .ok_or_else(|| Error::Invalid("room: no floor plane found".into()))?;
+    // Up points from the floor to the camera (the camera is above the floor).
+    let (mut up, mut d) = (plane.n, plane.d);
+    if -d < 0.0 {
+        (up, d) = (-up, -d);
+    }
+    let cam_height = -d; // the camera (origin) is at n·0 − d = −d above the plane
+    if cam_height.is_nan() || cam_height <= 0.0 {
+        return Err(Error::Invalid("room: the camera is on the floor plane".into()));
+    }
+    // Manhattan directions: wall normals projected on the floor, angle folded to 90°.
+    let forward = Vec3::Z;
+    let e1 = (forward - up * forward.dot(up)).normalize_or_zero();
+    let e1 = if e1 == Vec3::ZERO { Vec3::X } else { e1 };
+    let e2 = up.cross(e1);
+    let horizontal: Vec<&SurfacePoint> = wall_pts.iter().filter(|s| s.n.dot(up).abs() < 0.3).collect();
+    let (mut sx, mut sy) = (0.0f64, 0.0f64);
+    for s in &horizontal {
+        let phi = s.n.dot(e2).atan2(s.n.dot(e1)) as f64;
+        sx += (4.0 * phi).cos();
+        sy += (4.0 * phi).sin();
+    }
+    let theta = if horizontal.is_empty() { 0.0 } else { (sy.atan2(sx) / 4.0) as f32 };
+    let ax = e1 * theta.cos() + e2 * theta.sin(); // world +x
+    let az = ax.cross(up); // world +z, so that x × y = z
+                           // Walls: offsets of points whose normal is along ±x or ±z, split by the side of the camera they are on.
+    let cos_tol = opts.wall_angle_deg.to_radians().cos();
+    let mut sides: [Vec<f32>; 4] = Default::default();
+    for s in &wall_pts {
+        for (i, (axis, sign)) in [(ax, -1.0f32), (ax, 1.0), (az, -1.0), (az, 1.0)].into_iter().enumerate() {
+            let off = s.p.dot(axis);
+            // A wall on the +axis side faces back along −axis (toward the camera).
+            if off * sign > 0.0 && s.n.dot(axis) * -sign > cos_tol {
+                sides[i].push(off);
+            }
+        }
+    }
+    let all: Vec<Vec3> = floor_pts.iter().chain(&wall_pts).chain(&ceil_pts).map(|s| s.p).collect();
+    let mut bounds = [0.0f32; 4];
+    let mut seen = [false; 4];
+    // A wall counts as seen with enough points of its own (edge pixels with noisy normals do not make one).
+    let enough = (wall_pts.len() / 30).max(30);
+    for (i, (axis, sign)) in [(ax, -1.0f32), (ax, 1.0), (az, -1.0), (az, 1.0)].into_iter().enumerate() {
+        if sides[i].len() >= enough {
+            bounds[i] = median(sides[i].clone()).unwrap_or(0.0);
+            seen[i] = true;
+        } else {
+            // Unseen: beyond every point in that direction, or at the camera.
+            let far = all.iter().map(|p| p.dot(axis) * sign).fold(0.0f32, f32::max);
+            bounds[i] = far * sign;
+        }
+    }
+    let height_of = |p: Vec3| p.dot(up) + cam_height;
+    let ceiling = median(ceil_pts.iter().map(|s| height_of(s.p)).collect());
+    let ceiling_seen = ceiling.is_some() && ceil_pts.len() >= 30;
+    let height = match ceiling.filter(|_| ceiling_seen) {
+        Some(c) => c,
+        None => 1.2 * all.iter().map(|p| height_of(*p)).fold(cam_height, f32::max),
+    };
+    // Camera-to-world: world coordinates of the camera's axes (renderer convention: x right, y up, z forward).
+    let world = |v: Vec3| Vec3::new(v.dot(ax), v.dot(up), v.dot(az));
+    let (right, cam_up, fwd) = (world(Vec3::X), world(Vec3::Y), world(Vec3::Z));
+    let m = Mat4::from_cols(
+        right.extend(0.0),
+        cam_up.extend(0.0),
+        (-fwd).extend(0.0),
+        Vec4::new(0.0, cam_height, 0.0, 1.0),
+    );
+    let rows = m.transpose().to_cols_array_2d();
+    let pitch_deg = fwd.y.asin().to_degrees();
+    // Positive when the image is turned counterclockwise (the camera's right side rises).
+    let roll_deg = right.y.atan2(cam_up.y).to_degrees();
+    Ok(RoomEstimate {
+        width: bounds[1] - bounds[0],
+        depth: bounds[3] - bounds[2],
+        height,
+        x_min: bounds[0],
+        z_min: bounds[2],
+        camera_to_world: rows,
+        camera_height: cam_height,
+        pitch_deg,
+        roll_deg,
+        walls_seen: seen,
+        ceiling_seen,
+        floor_inliers: inliers,
+    })
+}
