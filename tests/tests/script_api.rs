@@ -32,7 +32,7 @@ fn documented() -> BTreeSet<String> {
         }
         let first = line.split('|').nth(1).unwrap_or("");
         for code in first.split('`').skip(1).step_by(2) {
-            let code = ["s.", "r.", "t."].iter().fold(code, |c, p| c.strip_prefix(p).unwrap_or(c));
+            let code = ["s.", "r.", "t.", "obs."].iter().fold(code, |c, p| c.strip_prefix(p).unwrap_or(c));
             let name: String = code.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
             if name.chars().next().is_some_and(|c| c.is_ascii_alphabetic()) {
                 names.insert(name);

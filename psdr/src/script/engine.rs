@@ -83,8 +83,10 @@ pub fn overrides(ast: &AST, sets: &[String]) -> Result<HashMap<String, Dynamic>>
     Ok(out)
 }
 
-/// `stage(name, scene, |s| { ...; s })`: runs (or, when finished earlier and resuming, loads) one stage.
-fn stage(ctx: &NativeCallContext, run: &RunRef, name: &str, scene: SceneHandle, f: FnPtr) -> Rr<SceneHandle> {
+/// `stage(name, input, |s| { ...; s })`: runs (or, when finished earlier and resuming, loads) one stage. The
+/// input is usually the previous stage's scene (a first stage may take `()` and build one); the closure
+/// returns the stage's scene.
+fn stage(ctx: &NativeCallContext, run: &RunRef, name: &str, scene: Dynamic, f: FnPtr) -> Rr<SceneHandle> {
     if let Some(loaded) = run.borrow_mut().begin_stage(name).map_err(rhai_err)? {
         return Ok(SceneHandle(loaded));
     }
@@ -116,9 +118,10 @@ pub fn build_engine(run: &RunRef) -> Engine {
     super::tensor_api::register(&mut engine);
     super::scene_api::register(&mut engine, run);
     super::optimize_api::register(&mut engine, run);
+    super::vision_api::register(&mut engine, run);
 
     let r = run.clone();
-    engine.register_fn("stage", move |ctx: NativeCallContext, name: &str, scene: SceneHandle, f: FnPtr| {
+    engine.register_fn("stage", move |ctx: NativeCallContext, name: &str, scene: Dynamic, f: FnPtr| {
         stage(&ctx, &r, name, scene, f)
     });
     let r = run.clone();

@@ -3,7 +3,7 @@
 //! all script text (`scripts/README.md` documents the API). `run_script` is `psdr run`.
 //!
 //! Files: `engine` (the engine, limits, `--set`, errors, `stage`), `scene_api` (scenes, renders, images),
-//! `tensor_api` (loss ops and operators), `optimize_api` (`optimize`), `crops` (crop strategies),
+//! `tensor_api` (loss ops and operators), `vision_api` (observations, room initialisation), `optimize_api` (`optimize`), `crops` (crop strategies),
 //! `run_context` (output folder, stages, resumption, result.json and report.html).
 
 mod crops;
@@ -12,6 +12,7 @@ mod optimize_api;
 mod run_context;
 mod scene_api;
 mod tensor_api;
+mod vision_api;
 
 pub use crops::{largest_rect, load_rects, random_crops, Rect};
 pub use engine::{build_engine, overrides, MAX_OPERATIONS};

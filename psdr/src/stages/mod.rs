@@ -1,10 +1,12 @@
 //! Pipeline stages (PSDR-Room's Method): so far the room stage's initialisation from depth and segmentation
-//! (`room_init`) and its geometry (`point_cloud`, `plane_fit`).
+//! (`room_init`), its geometry (`point_cloud`, `plane_fit`) and the room as a scene (`room_scene`).
 
 mod plane_fit;
 mod point_cloud;
 mod room_init;
+mod room_scene;
 
 pub use plane_fit::{fit_plane, ransac_plane, symmetric_eigen, Plane};
 pub use point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};
 pub use room_init::{init_room, RoomEstimate, RoomInitOptions};
+pub use room_scene::{room_scene, ROOM_SURFACES};

@@ -1,8 +1,8 @@
 //! The room box from depth and segmentation (PSDR-Room, "Room stage", initialisation): the floor plane by
 //! RANSAC on the floor's points, the Manhattan wall directions from the walls' normals, each wall at the
 //! median offset of its points, the height from the ceiling's points (else 1.2x the highest point seen). A
-//! wall that is not seen is put at the camera (photos are taken from a room's edge), or beyond every point
-//! seen in its direction. The camera's height, pitch and roll come out of the floor plane.
+//! wall that is not seen is put just behind the camera (photos are taken from a room's edge), or just beyond
+//! every point seen in its direction. The camera's height, pitch and roll come out of the floor plane.
 
 use super::plane_fit::ransac_plane;
 use super::point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};
@@ -20,11 +20,21 @@ pub struct RoomInitOptions {
     pub seed: u64,
     /// A wall point's normal must be within this angle (degrees) of a Manhattan axis to place that wall.
     pub wall_angle_deg: f32,
+    /// An unseen wall goes this far beyond the farthest point seen in its direction (or behind the camera),
+    /// in depth units: a camera in a wall's plane would see it edge-on.
+    pub unseen_wall_margin: f32,
 }
 
 impl Default for RoomInitOptions {
     fn default() -> Self {
-        RoomInitOptions { erode: 1, plane_tolerance: 0.01, ransac_iters: 300, seed: 1, wall_angle_deg: 20.0 }
+        RoomInitOptions {
+            erode: 1,
+            plane_tolerance: 0.01,
+            ransac_iters: 300,
+            seed: 1,
+            wall_angle_deg: 20.0,
+            unseen_wall_margin: 0.05,
+        }
     }
 }
 
@@ -128,7 +138,7 @@ pub fn init_room(
         } else {
             // Unseen: beyond every point in that direction, or at the camera.
             let far = all.iter().map(|p| p.dot(axis) * sign).fold(0.0f32, f32::max);
-            bounds[i] = far * sign;
+            bounds[i] = (far + opts.unseen_wall_margin) * sign;
         }
     }
     let height_of = |p: Vec3| p.dot(up) + cam_height;

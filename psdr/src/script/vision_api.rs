@@ -1,0 +1,104 @@
+//! Observations and the room stage in scripts: `observe(PHOTO)`, `obs.photo`, `obs.depth`, `obs.fov`,
+//! `obs.class_mask(class)`, `obs.classes()`, and `room_init(obs)` (the room box and camera as a scene).
+
+use super::engine::{rhai_err, Rr, RunRef};
+use super::scene_api::SceneHandle;
+use crate::error::Error;
+use crate::loss::{Image, Tensor};
+use crate::stages::{init_room, room_scene, Intrinsics, RoomInitOptions};
+use crate::vision::{ObservationInputs, Observations};
+use rhai::{Array, Dynamic, Engine, Map};
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+/// A photo's resolved observations.
+#[derive(Clone)]
+pub struct ObsHandle(pub Rc<Observations>);
+
+fn observe(path: &str, opts: &Map) -> Rr<ObsHandle> {
+    let mut inputs = ObservationInputs::new(Path::new(path));
+    for (k, v) in opts {
+        let text = || {
+            v.clone().into_string().map_err(|_| rhai_err(Error::Invalid(format!("observe: '{k}' must be a string"))))
+        };
+        match k.as_str() {
+            "depth" => inputs.depth = Some(PathBuf::from(text()?)),
+            "masks" => inputs.masks = Some(PathBuf::from(text()?)),
+            "labels" => inputs.labels = Some(PathBuf::from(text()?)),
+            "depth_units" => inputs.depth_units = text()?.parse().map_err(|e: String| rhai_err(Error::Invalid(e)))?,
+            "fov" => {
+                let f = v.as_float().or_else(|_| v.as_int().map(|i| i as f64));
+                inputs.fov_y_deg =
+                    Some(f.map_err(|_| rhai_err(Error::Invalid("observe: 'fov' must be a number".into())))? as f32)
+            }
+            other => {
+                return Err(rhai_err(Error::Invalid(format!(
+                    "observe: unknown option '{other}' (depth, depth_units, masks, labels, fov)"
+                ))))
+            }
+        }
+    }
+    Observations::resolve(&inputs).map(|o| ObsHandle(Rc::new(o))).map_err(rhai_err)
+}
+
+fn class_mask(o: &Observations, class: &str) -> crate::Result<Tensor> {
+    let m = o.require_instances()?;
+    Ok(Tensor::constant(Image::new(m.width, m.height, 1, m.class_mask(class))?))
+}
+
+fn room(run: &RunRef, o: &Observations, opts: &Map) -> crate::Result<SceneHandle> {
+    let mut ro = RoomInitOptions::default();
+    for (k, v) in opts {
+        let num = v
+            .as_float()
+            .or_else(|_| v.as_int().map(|i| i as f64))
+            .map_err(|_| Error::Invalid(format!("room_init: '{k}' must be a number")))?;
+        match k.as_str() {
+            "erode" => ro.erode = num.max(0.0) as usize,
+            "plane_tolerance" => ro.plane_tolerance = num as f32,
+            "ransac_iters" => ro.ransac_iters = num.max(1.0) as usize,
+            "seed" => ro.seed = num as u64,
+            "wall_angle_deg" => ro.wall_angle_deg = num as f32,
+            "unseen_wall_margin" => ro.unseen_wall_margin = num as f32,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "room_init: unknown option '{other}' (erode, plane_tolerance, ransac_iters, seed, wall_angle_deg, \
+                     unseen_wall_margin)"
+                )))
+            }
+        }
+    }
+    let depth = o.require_depth()?;
+    let fov = o.require_fov()?;
+    let inst = o.require_instances()?;
+    let as_bool = |c: &str| inst.class_mask(c).into_iter().map(|v| v > 0.5).collect::<Vec<bool>>();
+    let k = Intrinsics::new(o.photo.width, o.photo.height, fov);
+    let e = init_room(&depth.image.data, &as_bool("floor"), &as_bool("wall"), &as_bool("ceiling"), &k, &ro)?;
+    let v = serde_json::to_value(&e).map_err(|e| Error::Invalid(e.to_string()))?;
+    run.borrow_mut().recorded.insert("room_init".into(), v);
+    Ok(SceneHandle(room_scene(&e, fov, o.photo.width as u32, o.photo.height as u32)))
+}
+
+pub fn register(engine: &mut Engine, run: &RunRef) {
+    engine.register_type_with_name::<ObsHandle>("Observations");
+    engine.register_fn("observe", |path: &str| observe(path, &Map::new()));
+    engine.register_fn("observe", |path: &str, opts: Map| observe(path, &opts));
+    engine.register_get("photo", |o: &mut ObsHandle| Tensor::constant(o.0.photo.clone()));
+    engine.register_get("depth", |o: &mut ObsHandle| -> Rr<Tensor> {
+        Ok(Tensor::constant(o.0.require_depth().map_err(rhai_err)?.image.clone()))
+    });
+    engine.register_get("fov", |o: &mut ObsHandle| -> Rr<f64> { Ok(o.0.require_fov().map_err(rhai_err)? as f64) });
+    engine.register_fn("class_mask", |o: &mut ObsHandle, class: &str| class_mask(&o.0, class).map_err(rhai_err));
+    engine.register_fn("classes", |o: &mut ObsHandle| -> Rr<Array> {
+        let m = o.0.require_instances().map_err(rhai_err)?;
+        let mut names: Vec<String> = m.instances.iter().map(|i| i.class.clone()).collect();
+        names.dedup();
+        names.sort();
+        names.dedup();
+        Ok(names.into_iter().map(Dynamic::from).collect())
+    });
+    let r = run.clone();
+    engine.register_fn("room_init", move |o: ObsHandle| room(&r, &o.0, &Map::new()).map_err(rhai_err));
+    let r = run.clone();
+    engine.register_fn("room_init", move |o: ObsHandle, opts: Map| room(&r, &o.0, &opts).map_err(rhai_err));
+}
