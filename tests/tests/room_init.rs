@@ -222,3 +222,96 @@ fn room_script_fits_the_box_of_a_rendered_room() {
     assert!(opt["final_loss"].as_f64().unwrap() <= opt["first_loss"].as_f64().unwrap() + 1e-3, "{opt}");
     assert!(out.join("scene.json").is_file() && out.join("render.png").is_file());
 }
+
+/// Stability where the inputs are poor: depth with 5 % multiplicative noise per pixel and a smooth 3 % bias
+/// across the image, masks with 15 % of their pixels dropped at random and a ragged border, and views that show
+/// no ceiling or a single wall. Stated behaviour: always a finite box that holds the camera, the camera height
+/// within 5 % (measured: 2.3 % at worst over these 24 views; the floor is fitted in inverse depth, where such
+/// noise does not tilt it) and the pitch within 1.5 degrees. Walls are placed from their points' normals, which
+/// per-pixel noise of 5 % destroys: such a photo's walls count as unseen and the box ends just beyond the points
+/// seen (measured: no wall placed from its own points here) - a per-wall plane fit would recover them; the
+/// room's optimisation by mask IoU then moves them.
+#[test]
+fn room_init_degrades_gracefully_on_noisy_depth_and_ragged_masks() {
+    let mut rng = 99u64;
+    let mut u = || {
+        rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (rng >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let (iw, ih) = (128u32, 96u32);
+    let (mut tested, mut full, mut worst_h) = (0, 0, 0.0f32);
+    for case in 0..24 {
+        let (w, d, h) = (3.0 + 4.0 * u(), 3.0 + 4.0 * u(), 2.4 + 0.8 * u());
+        // Every third view looks down and sideways: no ceiling, often a single wall.
+        let (pitch, yaw) =
+            if case % 3 == 0 { (-25.0, 40.0 * (u() - 0.5)) } else { (-20.0 + 25.0 * u(), (u() - 0.5) * 50.0) };
+        let r = Room {
+            w,
+            d,
+            h,
+            cam: Vec3::new(0.0, 1.2 + 0.6 * u(), d / 2.0 - BEHIND),
+            yaw,
+            pitch,
+            fov: 45.0 + 30.0 * u(),
+        };
+        let (s, classes) = scene(&r, iw, ih);
+        let f = render_cpu(&SceneData::build(&s).unwrap(), &s.settings, &|_, _| {});
+        let n = (iw * ih) as usize;
+        let depth: Vec<f32> = (0..n)
+            .map(|p| {
+                let x = (p % iw as usize) as f32 / iw as f32;
+                // Box-Muller normal noise and a left-to-right bias.
+                let (a, b) = (u().max(1e-6), u());
+                let g = (-2.0 * a.ln()).sqrt() * (std::f32::consts::TAU * b).cos();
+                f.depth[p] * (1.0 + 0.05 * g) * (1.0 + 0.03 * (x - 0.5))
+            })
+            .collect();
+        let mut mask = |c: &str| -> Vec<bool> {
+            let m: Vec<bool> = f.object_id.iter().map(|&o| o != u32::MAX && classes[o as usize] == c).collect();
+            // Holes, and a ragged border: pixels next to another class dropped at random.
+            (0..n)
+                .map(|p| {
+                    let (x, y) = (p % iw as usize, p / iw as usize);
+                    let border = [(1i32, 0i32), (-1, 0), (0, 1), (0, -1)].iter().any(|(dx, dy)| {
+                        let (xx, yy) = (x as i32 + dx, y as i32 + dy);
+                        xx >= 0
+                            && yy >= 0
+                            && (xx as u32) < iw
+                            && (yy as u32) < ih
+                            && !m[yy as usize * iw as usize + xx as usize]
+                    });
+                    m[p] && u() > 0.15 && !(border && u() < 0.5)
+                })
+                .collect()
+        };
+        let (fl, wa, ce) = (mask("floor"), mask("wall"), mask("ceiling"));
+        let k = Intrinsics::new(iw as usize, ih as usize, r.fov);
+        let Ok(e) = init_room(&depth, &fl, &wa, &ce, &k, &RoomInitOptions::default()) else {
+            // Only a view without enough floor may fail, and then with a message.
+            assert!(f.object_id.iter().filter(|&&o| o == 0).count() < 400, "a clearly visible floor was not fitted");
+            continue;
+        };
+        tested += 1;
+        assert!([e.width, e.depth, e.height, e.camera_height].iter().all(|v| v.is_finite() && *v > 0.0), "{e:?}");
+        assert!(
+            e.x_min <= 0.0 && e.x_min + e.width >= 0.0 && e.z_min <= 0.0 && e.z_min + e.depth >= 0.0,
+            "camera outside"
+        );
+        worst_h = worst_h.max((e.camera_height / r.cam.y - 1.0).abs());
+        assert!((e.pitch_deg - r.pitch).abs() < 1.5, "case {case}: pitch {} vs {}", e.pitch_deg, r.pitch);
+        if e.walls_seen.iter().filter(|&&b| b).count() == 3 && e.ceiling_seen {
+            full += 1;
+            let x_measured = e.walls_seen[0] && e.walls_seen[1];
+            let (measured, assumed) = if x_measured { (e.width, e.depth) } else { (e.depth, e.width) };
+            let assumed = assumed + (BEHIND - 0.05);
+            assert!((measured - w).abs() < 0.1 * w && (assumed - d).abs() < 0.1 * d, "case {case}: {e:?} vs {w}x{d}");
+            assert!((e.height - h).abs() < 0.1 * h, "case {case}: height {} vs {h}", e.height);
+        }
+    }
+    eprintln!(
+        "worst camera height error {:.1} %, {full} views with every wall placed from its points",
+        worst_h * 100.0
+    );
+    assert!(worst_h < 0.05, "camera height off by {:.1} %", worst_h * 100.0);
+    assert!(tested >= 16, "tested {tested}");
+}

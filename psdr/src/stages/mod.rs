@@ -6,7 +6,7 @@ mod point_cloud;
 mod room_init;
 mod room_scene;
 
-pub use plane_fit::{fit_plane, ransac_plane, symmetric_eigen, Plane};
+pub use plane_fit::{fit_plane, fit_plane_in_depth, ransac_plane, symmetric_eigen, Plane};
 pub use point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};
 pub use room_init::{init_room, RoomEstimate, RoomInitOptions};
 pub use room_scene::{room_scene, ROOM_SURFACES};

@@ -72,6 +72,44 @@ pub fn fit_plane(points: &[Vec3]) -> Option<Plane> {
     n.is_finite().then(|| Plane { n: n.as_vec3(), d: n.dot(c) as f32 })
 }
 
+/// The plane through camera-space points fitted in inverse depth: with r = p / p.z (the pixel's ray) and
+/// w = 1 / p.z, a plane n·p = d is w = q·r with q = n / d, linear in q, and depth noise (which moves points
+/// along their rays, not across the plane) is noise in w alone. Weighted least squares with weights 1/w²
+/// (depth noise proportional to depth) is then free of the tilt an orthogonal fit gets from noise along
+/// grazing rays (measured on a floor with 5 % depth noise: the camera height 2-11 % low, the pitch 1-3
+/// degrees flat). `keep` selects the points (relative depth residual) after a first fit.
+pub fn fit_plane_in_depth(points: &[Vec3]) -> Option<Plane> {
+    let solve = |pts: &[&Vec3]| -> Option<DVec3> {
+        let (mut a, mut b) = (DMat3::ZERO, DVec3::ZERO);
+        for p in pts {
+            let (r, w) = (p.as_dvec3() / p.z as f64, 1.0 / p.z as f64);
+            let k = 1.0 / (w * w);
+            a += DMat3::from_cols(r * r.x, r * r.y, r * r.z) * k;
+            b += r * (w * k);
+        }
+        (a.determinant().abs() > 1e-12).then(|| a.inverse() * b)
+    };
+    let valid: Vec<&Vec3> = points.iter().filter(|p| p.z > 0.0).collect();
+    let mut q = solve(&valid)?;
+    // Re-fit on the points whose relative depth residual is within 2.5 robust standard deviations.
+    for _ in 0..3 {
+        let rel = |p: &Vec3| {
+            let (r, w) = (p.as_dvec3() / p.z as f64, 1.0 / p.z as f64);
+            (q.dot(r) - w) / w
+        };
+        let mut abs: Vec<f64> = valid.iter().map(|p| rel(p).abs()).collect();
+        abs.sort_by(f64::total_cmp);
+        let sigma = 1.4826 * abs.get(abs.len() / 2).copied()?;
+        let keep: Vec<&Vec3> = valid.iter().copied().filter(|p| rel(p).abs() <= 2.5 * sigma.max(1e-9)).collect();
+        q = solve(&keep)?;
+    }
+    let len = q.length();
+    (len > 0.0 && len.is_finite()).then(|| {
+        let n = q / len;
+        Plane { n: n.as_vec3(), d: (1.0 / len) as f32 }
+    })
+}
+
 /// RANSAC over `iters` seeded 3-point samples with inlier distance `tol`, then a least-squares refit on the
 /// best sample's inliers. Returns the plane and its inlier count.
 pub fn ransac_plane(points: &[Vec3], tol: f32, iters: usize, seed: u64) -> Option<(Plane, usize)> {
@@ -137,5 +175,34 @@ mod tests {
         let pl = if pl.n.dot(n) < 0.0 { Plane { n: -pl.n, d: -pl.d } } else { pl };
         assert!(pl.n.dot(n) > 0.9999 && (pl.d + 1.4).abs() < 1e-3, "{pl:?}");
         assert!((300..330).contains(&inliers), "{inliers}");
+    }
+
+    /// A floor 1.5 m below a camera pitched 15° down, seen through 5 % multiplicative depth noise: the fit in
+    /// inverse depth gets the height within 1 % and the normal within 0.5°; the orthogonal fit is tilted.
+    #[test]
+    fn inverse_depth_fit_is_not_tilted_by_depth_noise() {
+        let (pitch, h) = (15f32.to_radians(), 1.5f32);
+        let up = Vec3::new(0.0, pitch.cos(), pitch.sin()); // camera space: the floor's normal
+        let mut s = 5u64;
+        let mut r = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut pts = vec![];
+        for _ in 0..4000 {
+            let ray = Vec3::new(r() - 0.5, -0.4 * r(), 1.0);
+            let t = -h / ray.dot(up);
+            if t > 0.0 && t < 30.0 {
+                let (a, b) = (r().max(1e-6), r());
+                let g = (-2.0 * a.ln()).sqrt() * (std::f32::consts::TAU * b).cos();
+                pts.push(ray * t * (1.0 + 0.05 * g));
+            }
+        }
+        let p = fit_plane_in_depth(&pts).unwrap();
+        let (n, d) = if p.n.dot(up) < 0.0 { (-p.n, -p.d) } else { (p.n, p.d) };
+        assert!((d.abs() - h).abs() < 0.01 * h, "height {} vs {h}", d.abs());
+        assert!(n.dot(up) > 0.5f32.to_radians().cos(), "normal {n} vs {up}");
+        let o = fit_plane(&pts).unwrap();
+        assert!(o.n.dot(up).abs() < n.dot(up), "the orthogonal fit should be worse here");
     }
 }

@@ -4,7 +4,7 @@
 //! wall that is not seen is put just behind the camera (photos are taken from a room's edge), or just beyond
 //! every point seen in its direction. The camera's height, pitch and roll come out of the floor plane.
 
-use super::plane_fit::ransac_plane;
+use super::plane_fit::{fit_plane_in_depth, ransac_plane};
 use super::point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};
 use crate::error::{Error, Result};
 use glam::{Mat4, Vec3, Vec4};
@@ -88,8 +88,17 @@ pub fn init_room(
     }
     let zs = median(floor_pts.iter().chain(&wall_pts).map(|s| s.p.z).collect()).unwrap_or(1.0);
     let positions: Vec<Vec3> = floor_pts.iter().map(|s| s.p).collect();
-    let (plane, inliers) = ransac_plane(&positions, opts.plane_tolerance * zs, opts.ransac_iters, opts.seed)
+    // RANSAC finds the floor among stray points (furniture bleeding into the mask); the final plane is
+    // fitted in inverse depth on its inliers, with a band as wide as the depth's own noise.
+    let tol = opts.plane_tolerance * zs;
+    let (seed_plane, _) = ransac_plane(&positions, tol, opts.ransac_iters, opts.seed)
         .ok_or_else(|| Error::Invalid("room: no floor plane found".into()))?;
+    let residual_sigma =
+        1.4826 * median(positions.iter().map(|p| seed_plane.distance(*p).abs()).collect()).unwrap_or(0.0);
+    let band = (3.0 * residual_sigma).max(tol);
+    let near: Vec<Vec3> = positions.iter().copied().filter(|p| seed_plane.distance(*p).abs() <= band).collect();
+    let plane = fit_plane_in_depth(&near).unwrap_or(seed_plane);
+    let inliers = near.len();
     // Up points from the floor to the camera (the camera is above the floor).
     let (mut up, mut d) = (plane.n, plane.d);
     if -d < 0.0 {
