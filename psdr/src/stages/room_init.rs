@@ -120,26 +120,55 @@ pub fn init_room(
         sx += (4.0 * phi).cos();
         sy += (4.0 * phi).sin();
     }
-    let theta = if horizontal.is_empty() { 0.0 } else { (sy.atan2(sx) / 4.0) as f32 };
-    let ax = e1 * theta.cos() + e2 * theta.sin(); // world +x
-    let az = ax.cross(up); // world +z, so that x × y = z
-                           // Walls: offsets of points whose normal is along ±x or ±z, split by the side of the camera they are on.
+    let mut theta = if horizontal.is_empty() { 0.0 } else { (sy.atan2(sx) / 4.0) as f32 };
     let cos_tol = opts.wall_angle_deg.to_radians().cos();
+    let axes = |theta: f32| {
+        let ax = e1 * theta.cos() + e2 * theta.sin(); // world +x
+        (ax, ax.cross(up)) // world +z, so that x × y = z
+    };
+    let (mut ax, mut az) = axes(theta);
+    // A wall counts as seen with enough points of its own (edge pixels with noisy normals do not make one).
+    let enough = (wall_pts.len() / 30).max(30);
     let mut sides: [Vec<f32>; 4] = Default::default();
-    for s in &wall_pts {
-        for (i, (axis, sign)) in [(ax, -1.0f32), (ax, 1.0), (az, -1.0), (az, 1.0)].into_iter().enumerate() {
-            let off = s.p.dot(axis);
-            // A wall on the +axis side faces back along −axis (toward the camera).
-            if off * sign > 0.0 && s.n.dot(axis) * -sign > cos_tol {
-                sides[i].push(off);
+    // Normals are trusted when most wall points have one along a Manhattan axis; with noisy depth they point
+    // anywhere, and the walls are found as lines in the wall points' footprint on the floor instead.
+    let aligned = wall_pts.iter().filter(|s| s.n.dot(ax).abs().max(s.n.dot(az).abs()) > cos_tol).count();
+    if aligned * 2 >= wall_pts.len() {
+        // Walls: offsets of points whose normal is along ±x or ±z, split by the side of the camera they are on.
+        for s in &wall_pts {
+            for (i, (axis, sign)) in [(ax, -1.0f32), (ax, 1.0), (az, -1.0), (az, 1.0)].into_iter().enumerate() {
+                let off = s.p.dot(axis);
+                // A wall on the +axis side faces back along −axis (toward the camera).
+                if off * sign > 0.0 && s.n.dot(axis) * -sign > cos_tol {
+                    sides[i].push(off);
+                }
+            }
+        }
+    } else if wall_pts.len() >= enough {
+        let flat: Vec<[f32; 2]> = wall_pts.iter().map(|s| [s.p.dot(e1), s.p.dot(e2)]).collect();
+        // The inlier band follows the depth's relative noise, read off the floor's residuals.
+        let noise = residual_sigma / cam_height;
+        let band = (2.5 * noise * zs).max(tol);
+        let lines = footprint_lines(&flat, band, enough, opts.seed);
+        if let Some(first) = lines.first() {
+            theta = first.0;
+            (ax, az) = axes(theta);
+        }
+        for (dir, members) in &lines {
+            // A line running along x is a wall across z, and the other way round.
+            let along_x = (dir - theta).cos().abs() > (dir - theta).sin().abs();
+            let axis = if along_x { az } else { ax };
+            let offs: Vec<f32> = members.iter().map(|&k| wall_pts[k].p.dot(axis)).collect();
+            let off = median(offs.clone()).unwrap_or(0.0);
+            let i = if along_x { 2 } else { 0 } + usize::from(off > 0.0);
+            if offs.len() > sides[i].len() {
+                sides[i] = offs;
             }
         }
     }
     let all: Vec<Vec3> = floor_pts.iter().chain(&wall_pts).chain(&ceil_pts).map(|s| s.p).collect();
     let mut bounds = [0.0f32; 4];
     let mut seen = [false; 4];
-    // A wall counts as seen with enough points of its own (edge pixels with noisy normals do not make one).
-    let enough = (wall_pts.len() / 30).max(30);
     for (i, (axis, sign)) in [(ax, -1.0f32), (ax, 1.0), (az, -1.0), (az, 1.0)].into_iter().enumerate() {
         if sides[i].len() >= enough {
             bounds[i] = median(sides[i].clone()).unwrap_or(0.0);
@@ -184,4 +213,44 @@ pub fn init_room(
         ceiling_seen,
         floor_inliers: inliers,
     })
+}
+
+/// Lines through 2-D points by sequential RANSAC (each line's inliers removed before the next): up to four
+/// (direction angle, member indices) with at least `min_points` members each, largest first.
+fn footprint_lines(pts: &[[f32; 2]], band: f32, min_points: usize, seed: u64) -> Vec<(f32, Vec<usize>)> {
+    let mut state = seed ^ 0x2545_F491_4F6C_DD1D;
+    let mut next = |n: usize| {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((state >> 33) % n as u64) as usize
+    };
+    let mut left: Vec<usize> = (0..pts.len()).collect();
+    let mut lines = vec![];
+    while lines.len() < 4 && left.len() >= min_points {
+        let mut best: Option<(f32, Vec<usize>)> = None;
+        for _ in 0..300 {
+            let (a, b) = (pts[left[next(left.len())]], pts[left[next(left.len())]]);
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let len = (dx * dx + dy * dy).sqrt();
+            if len < band {
+                continue;
+            }
+            let (nx, ny) = (-dy / len, dx / len);
+            let members: Vec<usize> = left
+                .iter()
+                .copied()
+                .filter(|&k| ((pts[k][0] - a[0]) * nx + (pts[k][1] - a[1]) * ny).abs() < band)
+                .collect();
+            if best.as_ref().is_none_or(|b| members.len() > b.1.len()) {
+                best = Some((dy.atan2(dx), members));
+            }
+        }
+        match best {
+            Some((dir, members)) if members.len() >= min_points => {
+                left.retain(|k| !members.contains(k));
+                lines.push((dir, members));
+            }
+            _ => break,
+        }
+    }
+    lines
 }
