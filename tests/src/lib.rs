@@ -9,6 +9,8 @@ use psdr::render::{render_cpu, Frame, SceneData};
 use psdr::scene::{Camera, Emitter, Material, MeshPart, Object, Pose, RenderSettings, Scene};
 use std::path::PathBuf;
 
+pub mod rooms;
+
 /// An empty scene seen by a look-at camera.
 pub fn empty_scene(camera: Camera, settings: RenderSettings) -> Scene {
     Scene {

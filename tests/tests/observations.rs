@@ -135,10 +135,25 @@ fn bad_observations_are_clear_errors() {
     for (e, want) in [
         (o.require_depth().unwrap_err().to_string(), "bare.depth.exr"),
         (o.require_instances().unwrap_err().to_string(), "bare.masks.png"),
-        (o.require_fov().unwrap_err().to_string(), "--fov"),
     ] {
         assert!(e.contains(want), "{e}");
     }
+    // The fov has a last resort, a default, and that is said: this 48x36 render has too few lines for the
+    // vanishing points.
+    assert_eq!(o.fov_y_deg, Some(psdr::vision::DEFAULT_FOV_Y_DEG));
+    assert!(o.warnings.iter().any(|w| w.contains("default") && w.contains("--fov")), "{:?}", o.warnings);
+    assert!(o.sources["fov"].starts_with("default"), "{:?}", o.sources);
+    // Relative depth without a segmentation cannot be made metric: said when the depth is asked for.
+    let rel = dir.join("rel.exr");
+    psdr::output::write_exr_channels(&rel, 48, 36, &[("Z".into(), vec![0.5; 48 * 36])]).unwrap();
+    let o = Observations::resolve(&ObservationInputs {
+        depth: Some(rel),
+        depth_units: DepthUnits::Disparity,
+        ..ObservationInputs::new(&bare)
+    })
+    .unwrap();
+    let e = o.require_depth().unwrap_err().to_string();
+    assert!(e.contains("Disparity") && e.contains("segmentation"), "{e}");
     let e = resolve(&ObservationInputs::new(&dir.join("missing.jpg")));
     assert!(e.contains("missing.jpg") && e.contains("not found"), "{e}");
 }

@@ -10,70 +10,52 @@
 //! farthest point seen that way (or 1.2x the highest point for the ceiling), stated, not guessed as exact.
 
 use glam::Vec3;
-use glam::{EulerRot, Quat};
-use psdr::render::{render_cpu, SceneData};
-use psdr::scene::{box_mesh, rectangle_mesh, Camera, Material, Object, Pose, RenderSettings, Scene};
-use psdr::stages::{init_room, Intrinsics, RoomInitOptions};
+use psdr::render::{render_cpu, Frame, SceneData};
+use psdr::scene::Scene;
+use psdr::stages::{calibrate_relative_depth, init_room, Intrinsics, RoomEstimate, RoomInitOptions};
+use psdr::vision::DepthUnits;
+use psdr_tests::rooms::{furniture, room_scene, FurnitureBox, RoomSpec};
+use psdr_tests::SplitMix64;
 
-struct Room {
-    w: f32,
-    d: f32,
-    h: f32,
-    cam: Vec3,
-    yaw: f32,
-    pitch: f32,
-    fov: f32,
+type Room = RoomSpec;
+
+/// The room with one 1 x 0.8 x 0.9 m box in front of the camera, or the given furniture.
+fn scene_with(r: &Room, boxes: Option<Vec<FurnitureBox>>, w: u32, h: u32) -> (Scene, Vec<String>) {
+    let boxes = boxes.unwrap_or_else(|| {
+        vec![FurnitureBox { x: 0.1 * r.w, z: r.cam.z - 2.2, size: Vec3::new(1.0, 0.8, 0.9), yaw: 0.0 }]
+    });
+    let (mut s, classes) = room_scene(r, &boxes, false, w, h);
+    s.settings.max_depth = 1;
+    (s, classes)
 }
 
-/// Floor, ceiling and four walls as separate objects (room centred at the origin in x and z, floor y = 0),
-/// plus a 1 x 0.8 x 0.9 m box on the floor in front of the camera.
-fn scene(r: &Room, w: u32, h: u32) -> (Scene, Vec<&'static str>) {
-    let m = Material::diffuse("grey", Vec3::splat(0.6));
-    let rect = |name: &str, sx: f32, sy: f32, t: Vec3, rot: Vec3| Object {
-        name: name.into(),
-        parts: vec![rectangle_mesh(sx, sy)],
-        pose: Pose {
-            translation: t,
-            rotation: Quat::from_euler(EulerRot::ZYX, rot.z.to_radians(), rot.y.to_radians(), rot.x.to_radians()),
-            scale: Vec3::ONE,
-        },
-        emitter: None,
-    };
-    let (hw, hd) = (r.w / 2.0, r.d / 2.0);
-    let objects = vec![
-        rect("floor", r.w, r.d, Vec3::ZERO, Vec3::new(-90.0, 0.0, 0.0)),
-        rect("ceiling", r.w, r.d, Vec3::new(0.0, r.h, 0.0), Vec3::new(90.0, 0.0, 0.0)),
-        rect("wall_back", r.w, r.h, Vec3::new(0.0, r.h / 2.0, -hd), Vec3::ZERO),
-        rect("wall_front", r.w, r.h, Vec3::new(0.0, r.h / 2.0, hd), Vec3::new(0.0, 180.0, 0.0)),
-        rect("wall_left", r.d, r.h, Vec3::new(-hw, r.h / 2.0, 0.0), Vec3::new(0.0, 90.0, 0.0)),
-        rect("wall_right", r.d, r.h, Vec3::new(hw, r.h / 2.0, 0.0), Vec3::new(0.0, -90.0, 0.0)),
-        Object {
-            name: "sofa".into(),
-            parts: vec![box_mesh(Vec3::new(1.0, 0.8, 0.9), false)],
-            pose: Pose { translation: Vec3::new(0.2 * r.w * 0.5, 0.4, r.cam.z - 2.2), ..Default::default() },
-            emitter: None,
-        },
-    ];
-    let classes = vec!["floor", "ceiling", "wall", "wall", "wall", "wall", "sofa"];
-    let dir = Quat::from_euler(EulerRot::YXZ, r.yaw.to_radians(), r.pitch.to_radians(), 0.0) * -Vec3::Z;
-    let camera = Camera::look_at(r.cam, r.cam + dir, Vec3::Y, r.fov, w, h);
-    let mut s = Scene {
-        camera,
-        settings: RenderSettings { spp: 4, max_depth: 1, rr_depth: 1, seed: 0 },
-        materials: vec![m],
-        textures: vec![],
-        objects,
-        source: None,
-        requires_grad: vec![],
-    };
-    for o in &mut s.objects {
-        o.parts.iter_mut().for_each(|p| p.material = 0);
-    }
-    (s, classes)
+fn scene(r: &Room, w: u32, h: u32) -> (Scene, Vec<String>) {
+    scene_with(r, None, w, h)
+}
+
+/// Per-class masks from the id AOV.
+fn class_mask(f: &Frame, classes: &[String], c: &str) -> Vec<bool> {
+    f.object_id.iter().map(|&o| o != u32::MAX && classes[o as usize] == c).collect()
 }
 
 /// The camera's distance from the wall behind it in the test rooms.
 const BEHIND: f32 = 0.2;
+
+/// Relative errors of (side-to-side extent, front-to-back extent, height) where the estimate saw three walls
+/// and the ceiling, in units where the truth's metres are multiplied by `scale`. The box's axes may come out
+/// rotated by a multiple of 90°: the axis spanned by the two seen side walls is the truth's w; along the other
+/// (d) the wall behind the camera is assumed 0.05 units behind it while the truth puts it BEHIND metres back:
+/// that part is the assumption's error, not a measurement, and is taken out.
+fn full_view_errors(e: &RoomEstimate, r: &Room, scale: f32) -> Option<[f32; 3]> {
+    if e.walls_seen.iter().filter(|&&b| b).count() < 3 || !e.ceiling_seen {
+        return None;
+    }
+    let x_measured = e.walls_seen[0] && e.walls_seen[1];
+    let (measured, assumed) = if x_measured { (e.width, e.depth) } else { (e.depth, e.width) };
+    let assumed = assumed + BEHIND * scale - 0.05;
+    let (w, d, h) = (r.w * scale, r.d * scale, r.h * scale);
+    Some([(measured - w).abs() / w, (assumed - d).abs() / d, (e.height - h).abs() / h])
+}
 
 #[test]
 fn room_box_and_camera_height_from_rendered_depth_and_masks() {
@@ -85,6 +67,7 @@ fn room_box_and_camera_height_from_rendered_depth_and_masks() {
     let (iw, ih) = (128u32, 96u32);
     let mut worst = [0.0f32; 4];
     let (mut full_views, mut cases) = (0, 0);
+    let (mut relative_views, mut worst_ratio) = (0, 0.0f32);
     while cases < 40 {
         let (w, d, h) = (3.0 + 4.0 * u(), 3.0 + 4.0 * u(), 2.4 + 0.8 * u());
         let r = Room {
@@ -97,10 +80,11 @@ fn room_box_and_camera_height_from_rendered_depth_and_masks() {
             fov: 45.0 + 30.0 * u(),
         };
         cases += 1;
-        let (s, classes) = scene(&r, iw, ih);
+        // Furniture over up to 40 % of the floor.
+        let boxes = furniture(&r, 0.4 * u(), &mut SplitMix64(cases));
+        let (s, classes) = scene_with(&r, Some(boxes), iw, ih);
         let f = render_cpu(&SceneData::build(&s).unwrap(), &s.settings, &|_, _| {});
-        let mask =
-            |c: &str| -> Vec<bool> { f.object_id.iter().map(|&o| o != u32::MAX && classes[o as usize] == c).collect() };
+        let mask = |c: &str| class_mask(&f, &classes, c);
         // What the render shows: pixels of each wall object and of the ceiling.
         let pixels = |o: usize| f.object_id.iter().filter(|&&x| x == o as u32).count();
         let shown = |o: usize| pixels(o) >= 60;
@@ -136,19 +120,34 @@ fn room_box_and_camera_height_from_rendered_depth_and_masks() {
         );
         assert!(!e.ceiling_seen || shown(1), "a ceiling the photo does not show");
         assert!(e.ceiling_seen || !clearly(1), "a clearly shown ceiling not seen");
-        if seen == 3 && e.ceiling_seen {
+        if let Some(errs) = full_view_errors(&e, &r, 1.0) {
             full_views += 1;
-            // The box's axes may come out rotated by a multiple of 90°: the estimated axis spanned by the two
-            // seen side walls is the truth's side-to-side extent (w); along the other (d) the wall behind the
-            // camera is assumed 0.05 m behind it while the truth puts it BEHIND metres back: that part of d is
-            // the assumption's error, not a measurement, and is taken out.
-            let x_measured = e.walls_seen[0] && e.walls_seen[1];
-            let (measured, assumed) = if x_measured { (e.width, e.depth) } else { (e.depth, e.width) };
-            let assumed = assumed + (BEHIND - 0.05);
-            let errs = [(measured - w).abs() / w, (assumed - d).abs() / d, (e.height - h).abs() / h];
             for (k, v) in errs.iter().enumerate() {
                 worst[k] = worst[k].max(*v);
             }
+        }
+        // The same view with relative depth (affine in depth, or in inverse depth, unknown scale and shift):
+        // the shift from the room's planes, the scale from the 1.5 m camera-height prior; the box's
+        // proportions are what is measured.
+        let (units, rel): (DepthUnits, Vec<f32>) = if cases % 2 == 0 {
+            (DepthUnits::Relative, f.depth.iter().map(|&z| if z > 0.0 { 3.7 * z + 1.3 } else { 0.0 }).collect())
+        } else {
+            (DepthUnits::Disparity, f.depth.iter().map(|&z| if z > 0.0 { 2.0 / z + 0.4 } else { 0.0 }).collect())
+        };
+        let masks = [&mask("floor")[..], &mask("wall")[..], &mask("ceiling")[..]];
+        let (metres, cal) = calibrate_relative_depth(&rel, units, masks, &k, 1.5, 1).unwrap();
+        let er = init_room(&metres, masks[0], masks[1], masks[2], &k, &RoomInitOptions::default()).unwrap();
+        let scale = 1.5 / r.cam.y;
+        assert!((er.camera_height - 1.5).abs() < 0.02, "{units:?}: camera height {} (prior 1.5)", er.camera_height);
+        if let Some(errs) = full_view_errors(&er, &r, scale) {
+            // Ratios W/H and D/H: their relative error is at most the sum of the two sizes' errors.
+            let ratios = [errs[0] + errs[2], errs[1] + errs[2]];
+            eprintln!(
+                "  {units:?} (shift {:.3}, residual {:.4}): ratio errors {ratios:?}",
+                cal.shift, cal.manhattan_residual
+            );
+            relative_views += 1;
+            worst_ratio = worst_ratio.max(ratios[0]).max(ratios[1]);
         }
         worst[3] = worst[3].max((e.camera_height - r.cam.y).abs());
     }
@@ -160,8 +159,11 @@ fn room_box_and_camera_height_from_rendered_depth_and_masks() {
         worst[2] * 100.0,
         worst[3] * 100.0
     );
+    eprintln!("relative depth: {relative_views} full views, ratios W/H and D/H within {:.2} %", worst_ratio * 100.0);
     assert!(full_views >= 6, "too few full views to test the sizes ({full_views})");
     assert!(worst[0] < 0.03 && worst[1] < 0.03 && worst[2] < 0.03, "size errors {worst:?}");
+    assert!(relative_views >= 6, "too few full views with relative depth ({relative_views})");
+    assert!(worst_ratio < 0.05, "ratio errors with relative depth up to {:.2} %", worst_ratio * 100.0);
 }
 
 /// `scripts/room.rhai` end to end on a rendered room whose three walls and ceiling are in view: observation
@@ -187,7 +189,7 @@ fn room_script_fits_the_box_of_a_rendered_room() {
     let labels: serde_json::Map<String, serde_json::Value> = classes
         .iter()
         .enumerate()
-        .map(|(o, c)| ((o + 1).to_string(), serde_json::Value::from(*c)))
+        .map(|(o, c)| ((o + 1).to_string(), serde_json::Value::from(c.as_str())))
         .filter(|(k, _)| f.object_id.contains(&(k.parse::<u32>().unwrap() - 1)))
         .collect();
     std::fs::write(dir.join("room.labels.json"), serde_json::to_string(&labels).unwrap()).unwrap();

@@ -3,6 +3,7 @@
 mod export_cmd;
 mod grad_cmd;
 mod materials_cmd;
+mod observation_args;
 mod observe_cmd;
 mod render_cmd;
 mod run_cmd;

@@ -1,7 +1,9 @@
-//! `psdr observe PHOTO -o DIR [--depth F] [--masks F] [--labels F] [--fov DEG] [--depth-units U]`: resolves
+//! `psdr observe PHOTO -o DIR [--depth F] [--masks F] [--labels F] [--fov DEG] [--depth-units U]
+//! [--camera-height M]`: resolves
 //! the photo's observations and writes them (with a mask overlay) for inspection and editing.
 
-use crate::vision::{DepthUnits, ObservationInputs, Observations};
+use super::observation_args::ObservationArgs;
+use crate::vision::Observations;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -12,36 +14,19 @@ pub struct ObserveArgs {
     /// Output folder.
     #[arg(short, long)]
     output: PathBuf,
-    /// Depth map (EXR, or 16-bit PNG) instead of STEM.depth.exr/.png beside the photo.
-    #[arg(long)]
-    depth: Option<PathBuf>,
-    /// What the depth values are: metres, or relative (unknown scale and offset).
-    #[arg(long, default_value = "metres")]
-    depth_units: DepthUnits,
-    /// Instance ids (16-bit PNG, 0 = none) instead of STEM.masks.png.
-    #[arg(long)]
-    masks: Option<PathBuf>,
-    /// Instance classes ({"<id>": "<class>"}) instead of STEM.labels.json.
-    #[arg(long)]
-    labels: Option<PathBuf>,
-    /// Vertical field of view in degrees instead of STEM.camera.json.
-    #[arg(long)]
-    fov: Option<f32>,
+    #[command(flatten)]
+    observations: ObservationArgs,
 }
 
 pub fn run(a: ObserveArgs) -> anyhow::Result<()> {
-    let inputs = ObservationInputs {
-        photo: a.photo,
-        depth: a.depth,
-        depth_units: a.depth_units,
-        masks: a.masks,
-        labels: a.labels,
-        fov_y_deg: a.fov,
-    };
+    let inputs = a.observations.inputs(&a.photo);
     let obs = Observations::resolve(&inputs)?;
     let written = obs.write(&a.output)?;
     for (q, src) in &obs.sources {
         println!("{q:<10} {src}");
+    }
+    for w in &obs.warnings {
+        println!("warning: {w}");
     }
     for missing in ["depth", "instances", "fov"].iter().filter(|q| !obs.sources.contains_key(**q)) {
         let why = match *missing {

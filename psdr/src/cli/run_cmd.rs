@@ -1,5 +1,7 @@
-//! `psdr run SCRIPT PHOTO [-o DIR] [--set key=value]... [--from STAGE] [--resume]`: runs a Rhai stage script.
+//! `psdr run SCRIPT PHOTO [-o DIR] [--set key=value]... [--from STAGE] [--resume] [observation flags]`: runs a
+//! Rhai stage script.
 
+use super::observation_args::ObservationArgs;
 use crate::backend::{create_backend_on, BackendKind};
 use crate::script::{run_script, RunOptions, ScriptRun};
 use clap::Args;
@@ -36,6 +38,9 @@ pub struct RunArgs {
     /// No progress bars or log lines.
     #[arg(long)]
     quiet: bool,
+    /// Observation sources for PHOTO (the script's `observe(PHOTO)`), instead of the files beside it.
+    #[command(flatten)]
+    observations: ObservationArgs,
 }
 
 pub fn run(a: RunArgs) -> anyhow::Result<()> {
@@ -44,10 +49,16 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
     let summary = run_script(
         ScriptRun {
             script: a.script,
-            photo: a.photo,
+            photo: a.photo.clone(),
             out: a.output.clone(),
             sets: a.set,
-            options: RunOptions { resume: a.resume, from_stage: a.from, quiet: a.quiet, preview_spp: a.preview_spp },
+            options: RunOptions {
+                resume: a.resume,
+                from_stage: a.from,
+                quiet: a.quiet,
+                preview_spp: a.preview_spp,
+                observations: Some(a.observations.inputs(&a.photo)),
+            },
             command,
         },
         backend,

@@ -21,6 +21,9 @@ pub struct RunOptions {
     pub quiet: bool,
     /// Samples per pixel of the preview render written at the end of each stage.
     pub preview_spp: u32,
+    /// Where `observe(PHOTO)` takes the photo's observations from (the command line's flags); None: the
+    /// files beside the photo.
+    pub observations: Option<crate::vision::ObservationInputs>,
 }
 
 pub struct CurrentStage {
@@ -223,6 +226,9 @@ impl RunContext {
         if let Some(scene) = scene {
             result["camera"] = super::scene_api::camera_json(scene);
             result["scene"] = super::scene_api::scene_summary(scene);
+            if let Some(room) = crate::stages::room_summary(scene) {
+                result["room"] = room;
+            }
         }
         let path = self.out.join("result.json");
         let text = serde_json::to_string_pretty(&result).map_err(|e| Error::io(&path, e))?;

@@ -15,8 +15,10 @@ use std::rc::Rc;
 #[derive(Clone)]
 pub struct ObsHandle(pub Rc<Observations>);
 
-fn observe(path: &str, opts: &Map) -> Rr<ObsHandle> {
-    let mut inputs = ObservationInputs::new(Path::new(path));
+fn observe(run: &RunRef, path: &str, opts: &Map) -> Rr<ObsHandle> {
+    // The run's photo takes the command line's observation flags; options given here override them.
+    let flags = run.borrow().options.observations.clone().filter(|o| o.photo == Path::new(path));
+    let mut inputs = flags.unwrap_or_else(|| ObservationInputs::new(Path::new(path)));
     for (k, v) in opts {
         let text = || {
             v.clone().into_string().map_err(|_| rhai_err(Error::Invalid(format!("observe: '{k}' must be a string"))))
@@ -26,19 +28,40 @@ fn observe(path: &str, opts: &Map) -> Rr<ObsHandle> {
             "masks" => inputs.masks = Some(PathBuf::from(text()?)),
             "labels" => inputs.labels = Some(PathBuf::from(text()?)),
             "depth_units" => inputs.depth_units = text()?.parse().map_err(|e: String| rhai_err(Error::Invalid(e)))?,
-            "fov" => {
+            "fov" | "camera_height" => {
                 let f = v.as_float().or_else(|_| v.as_int().map(|i| i as f64));
-                inputs.fov_y_deg =
-                    Some(f.map_err(|_| rhai_err(Error::Invalid("observe: 'fov' must be a number".into())))? as f32)
+                let f = f.map_err(|_| rhai_err(Error::Invalid(format!("observe: '{k}' must be a number"))))? as f32;
+                if k == "fov" {
+                    inputs.fov_y_deg = Some(f);
+                } else {
+                    inputs.camera_height = f;
+                }
             }
             other => {
                 return Err(rhai_err(Error::Invalid(format!(
-                    "observe: unknown option '{other}' (depth, depth_units, masks, labels, fov)"
+                    "observe: unknown option '{other}' (depth, depth_units, masks, labels, fov, camera_height)"
                 ))))
             }
         }
     }
-    Observations::resolve(&inputs).map(|o| ObsHandle(Rc::new(o))).map_err(rhai_err)
+    let obs = Observations::resolve(&inputs).map_err(rhai_err)?;
+    // Where each quantity came from and what was assumed goes into result.json.
+    let summary = serde_json::json!({
+        "photo": path,
+        "sources": obs.sources,
+        "warnings": obs.warnings,
+        "fov_y_deg": obs.fov_y_deg,
+        "fov_estimate": obs.fov_estimate,
+        "depth_calibration": obs.depth_calibration,
+    });
+    let mut r = run.borrow_mut();
+    if !r.options.quiet {
+        for w in &obs.warnings {
+            eprintln!("warning: {w}");
+        }
+    }
+    r.recorded.insert("observations".into(), summary);
+    Ok(ObsHandle(Rc::new(obs)))
 }
 
 fn class_mask(o: &Observations, class: &str) -> crate::Result<Tensor> {
@@ -81,8 +104,10 @@ fn room(run: &RunRef, o: &Observations, opts: &Map) -> crate::Result<SceneHandle
 
 pub fn register(engine: &mut Engine, run: &RunRef) {
     engine.register_type_with_name::<ObsHandle>("Observations");
-    engine.register_fn("observe", |path: &str| observe(path, &Map::new()));
-    engine.register_fn("observe", |path: &str, opts: Map| observe(path, &opts));
+    let r = run.clone();
+    engine.register_fn("observe", move |path: &str| observe(&r, path, &Map::new()));
+    let r = run.clone();
+    engine.register_fn("observe", move |path: &str, opts: Map| observe(&r, path, &opts));
     engine.register_get("photo", |o: &mut ObsHandle| Tensor::constant(o.0.photo.clone()));
     engine.register_get("depth", |o: &mut ObsHandle| -> Rr<Tensor> {
         Ok(Tensor::constant(o.0.require_depth().map_err(rhai_err)?.image.clone()))

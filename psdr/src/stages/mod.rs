@@ -1,12 +1,14 @@
 //! Pipeline stages (PSDR-Room's Method): so far the room stage's initialisation from depth and segmentation
 //! (`room_init`), its geometry (`point_cloud`, `plane_fit`) and the room as a scene (`room_scene`).
 
+mod depth_calibration;
 mod plane_fit;
 mod point_cloud;
 mod room_init;
 mod room_scene;
 
+pub use depth_calibration::{calibrate_relative_depth, DepthCalibration};
 pub use plane_fit::{fit_plane, fit_plane_in_depth, ransac_plane, symmetric_eigen, Plane};
 pub use point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};
 pub use room_init::{init_room, RoomEstimate, RoomInitOptions};
-pub use room_scene::{room_scene, ROOM_SURFACES};
+pub use room_scene::{room_scene, room_summary, ROOM_SURFACES};

@@ -63,3 +63,38 @@ pub fn room_scene(e: &RoomEstimate, fov_y_deg: f32, width: u32, height: u32) -> 
         requires_grad: vec![],
     }
 }
+
+/// The room of a scene built by `room_scene` (after any refinement), for `result.json`: size, bounds, each
+/// surface's plane (world normal pointing into the room, n·p = d) and the camera relative to the room (height
+/// above the floor, pitch, roll, fov). None when the scene has no room surfaces.
+pub fn room_summary(scene: &Scene) -> Option<serde_json::Value> {
+    let at = |name: &str| scene.objects.iter().find(|o| o.name == name).map(|o| o.pose.translation);
+    let (floor, ceiling) = (at("floor")?, at("ceiling")?);
+    let (x0, x1, z0, z1) = (at("wall_x0")?, at("wall_x1")?, at("wall_z0")?, at("wall_z1")?);
+    let plane = |n: Vec3, p: Vec3| serde_json::json!({ "normal": n.to_array(), "d": n.dot(p) });
+    let c = &scene.camera;
+    let right = c.forward.cross(c.up).normalize();
+    Some(serde_json::json!({
+        "width": x1.x - x0.x,
+        "depth": z1.z - z0.z,
+        "height": ceiling.y - floor.y,
+        "x_range": [x0.x, x1.x],
+        "z_range": [z0.z, z1.z],
+        "floor_y": floor.y,
+        "planes": {
+            "floor": plane(Vec3::Y, floor),
+            "ceiling": plane(-Vec3::Y, ceiling),
+            "wall_x0": plane(Vec3::X, x0),
+            "wall_x1": plane(-Vec3::X, x1),
+            "wall_z0": plane(Vec3::Z, z0),
+            "wall_z1": plane(-Vec3::Z, z1),
+        },
+        "camera": {
+            "position": c.origin.to_array(),
+            "height_above_floor": c.origin.y - floor.y,
+            "pitch_deg": c.forward.y.clamp(-1.0, 1.0).asin().to_degrees(),
+            "roll_deg": right.y.atan2(c.up.y).to_degrees(),
+            "fov_y_deg": c.fov_y_deg,
+        },
+    }))
+}

@@ -1,6 +1,7 @@
 //! Depth observations: camera-space z per pixel, from an EXR (its `Z`, `depth`, `Y` or only channel, else R)
-//! or a 16-bit PNG (metres: millimetres stored; relative: 0..65535 mapped to 0..1). Metric depth fixes the
-//! scene's scale; relative depth (unknown scale and offset, as monocular estimators give) only its shape.
+//! or a 16-bit PNG (metres: millimetres stored; relative or disparity: 0..65535 mapped to 0..1). Metric depth
+//! fixes the scene's scale; relative depth or disparity (unknown scale and shift, as monocular estimators give)
+//! only its shape, once the shift is found (`stages::calibrate_relative_depth`).
 //! Pixels without depth are 0 (or negative, or infinite: sensors write those); NaN is an error, because it
 //! means a broken file rather than a missing measurement.
 
@@ -13,8 +14,11 @@ use std::path::Path;
 #[serde(rename_all = "lowercase")]
 pub enum DepthUnits {
     Metres,
-    /// Proportional to depth up to an unknown scale and offset.
+    /// Affine in depth with an unknown scale and shift.
     Relative,
+    /// Affine in inverse depth with an unknown scale and shift (larger = nearer), as monocular depth networks
+    /// (Depth-Anything, DPT) give.
+    Disparity,
 }
 
 impl std::str::FromStr for DepthUnits {
@@ -23,7 +27,10 @@ impl std::str::FromStr for DepthUnits {
         match s {
             "metres" | "meters" | "m" => Ok(DepthUnits::Metres),
             "relative" => Ok(DepthUnits::Relative),
-            _ => Err(format!("depth units '{s}': metres or relative")),
+            "disparity" | "inverse" => Ok(DepthUnits::Disparity),
+            _ => Err(format!(
+                "depth units '{s}': metres, relative (affine in depth) or disparity (affine in inverse depth)"
+            )),
         }
     }
 }
@@ -62,7 +69,7 @@ pub fn load_depth(path: &Path, units: DepthUnits) -> Result<Depth> {
         let (w, h) = g.dimensions();
         let scale = match units {
             DepthUnits::Metres => 1e-3,
-            DepthUnits::Relative => 1.0 / 65535.0,
+            DepthUnits::Relative | DepthUnits::Disparity => 1.0 / 65535.0,
         };
         (w as usize, h as usize, g.into_raw().into_iter().map(|v| v as f32 * scale).collect())
     };

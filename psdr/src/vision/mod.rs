@@ -1,15 +1,20 @@
 //! Photo observations: the photo (`photo`), depth (`depth`), instance segmentation with classes (`masks`,
 //! `classes`), the field of view, and their resolution from flags and files beside the photo
-//! (`observations`). Estimators (ONNX models, vanishing points) will add sources here.
+//! (`observations`), and estimators for what is not given: the field of view from vanishing points
+//! (`line_segments`, `vanishing_points`).
 
 mod classes;
 mod depth;
+mod line_segments;
 mod masks;
 mod observations;
 mod photo;
+mod vanishing_points;
 
 pub use classes::{canonical_class, class_names, ClassKind, UNKNOWN_CLASS};
 pub use depth::{load_depth, Depth, DepthUnits};
+pub use line_segments::{detect_segments, Segment, SegmentOptions};
 pub use masks::{load_instances, Instance, Instances};
-pub use observations::{ObservationInputs, Observations};
+pub use observations::{ObservationInputs, Observations, DEFAULT_CAMERA_HEIGHT, DEFAULT_FOV_Y_DEG};
 pub use photo::load_photo;
+pub use vanishing_points::{estimate_fov, FovEstimate, FovFailure, VanishingOptions, VanishingPoint};

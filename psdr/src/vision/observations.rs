@@ -6,8 +6,10 @@
 use super::depth::{load_depth, Depth, DepthUnits};
 use super::masks::{load_instances, Instances};
 use super::photo::load_photo;
+use super::vanishing_points::{estimate_fov, FovEstimate, VanishingOptions};
 use crate::error::{Error, Result};
 use crate::loss::Image;
+use crate::stages::{calibrate_relative_depth, DepthCalibration, Intrinsics};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -21,7 +23,15 @@ pub struct ObservationInputs {
     pub masks: Option<PathBuf>,
     pub labels: Option<PathBuf>,
     pub fov_y_deg: Option<f32>,
+    /// The camera's height above the floor (metres) that sets the scale of relative depth: a prior.
+    pub camera_height: f32,
 }
+
+/// The camera height assumed when depth is relative: eye level of a standing photographer, a little low.
+pub const DEFAULT_CAMERA_HEIGHT: f32 = 1.5;
+/// The vertical fov used when nothing gives one and the vanishing points do not fix it (a phone's main camera
+/// in landscape is 45-50 degrees vertically, a wide real-estate lens 60-75).
+pub const DEFAULT_FOV_Y_DEG: f32 = 55.0;
 
 impl ObservationInputs {
     pub fn new(photo: &Path) -> ObservationInputs {
@@ -32,6 +42,7 @@ impl ObservationInputs {
             masks: None,
             labels: None,
             fov_y_deg: None,
+            camera_height: DEFAULT_CAMERA_HEIGHT,
         }
     }
 
@@ -51,8 +62,14 @@ pub struct Observations {
     pub depth: Option<Depth>,
     pub instances: Option<Instances>,
     pub fov_y_deg: Option<f32>,
+    /// The vanishing-point estimate, when the fov came from it (or it was tried and failed: `warnings`).
+    pub fov_estimate: Option<FovEstimate>,
+    /// How relative depth was turned into metres.
+    pub depth_calibration: Option<DepthCalibration>,
     /// Quantity -> where it came from ("flag --depth x.exr", "file room.depth.exr").
     pub sources: BTreeMap<String, String>,
+    /// What was assumed rather than observed (a default fov, a failed estimator), for the run's report.
+    pub warnings: Vec<String>,
 }
 
 fn check_size(what: &str, path: &Path, (w, h): (usize, usize), photo: &Image) -> Result<()> {
@@ -127,28 +144,116 @@ impl Observations {
             }
             None => None,
         };
+        let mut warnings = vec![];
+        let mut fov_estimate = None;
         let fov_y_deg = match (inputs.fov_y_deg, inputs.beside("camera.json")) {
             (Some(f), _) => {
                 let f = check_fov(f).map_err(|m| Error::Invalid(format!("--fov: {m}")))?;
                 sources.insert("fov".into(), format!("flag --fov {f}"));
-                Some(f)
+                f
             }
             (None, p) if p.is_file() => {
                 let f = load_camera(&p)?;
                 sources.insert("fov".into(), format!("file {}", p.display()));
-                Some(f)
+                f
             }
-            _ => None,
+            _ => match estimate_fov(&photo, &VanishingOptions::default()) {
+                Ok(e) => {
+                    sources.insert(
+                        "fov".into(),
+                        format!(
+                            "vanishing points: {:.1} ± {:.1} degrees from {} line segments in {} directions",
+                            e.fov_y_deg,
+                            e.sigma_deg,
+                            e.segments,
+                            e.vanishing_points.len()
+                        ),
+                    );
+                    let f = e.fov_y_deg;
+                    fov_estimate = Some(e);
+                    f
+                }
+                Err(failure) => {
+                    let w = format!(
+                        "field of view: the default {DEFAULT_FOV_Y_DEG} degrees, a guess: the vanishing points did not \
+                         fix it ({failure}); give it with --fov or {}.camera.json",
+                        stem_of(&inputs.photo)
+                    );
+                    sources.insert(
+                        "fov".into(),
+                        format!("default {DEFAULT_FOV_Y_DEG} degrees (vanishing points: {failure})"),
+                    );
+                    warnings.push(w);
+                    DEFAULT_FOV_Y_DEG
+                }
+            },
         };
-        Ok(Observations { photo_path: inputs.photo.clone(), photo, depth, instances, fov_y_deg, sources })
+        let mut obs = Observations {
+            photo_path: inputs.photo.clone(),
+            photo,
+            depth,
+            instances,
+            fov_y_deg: Some(fov_y_deg),
+            fov_estimate,
+            depth_calibration: None,
+            sources,
+            warnings,
+        };
+        obs.calibrate_depth(inputs.camera_height)?;
+        Ok(obs)
+    }
+
+    /// Relative depth to metres, when there is a floor (and walls) to find its shift on; otherwise it stays
+    /// relative and `require_depth` says what is missing.
+    fn calibrate_depth(&mut self, camera_height: f32) -> Result<()> {
+        let (Some(depth), Some(inst), Some(fov)) = (&self.depth, &self.instances, self.fov_y_deg) else {
+            return Ok(());
+        };
+        if depth.units == DepthUnits::Metres || !inst.instances.iter().any(|i| i.class == "floor") {
+            return Ok(());
+        }
+        let mask = |c: &str| inst.class_mask(c).into_iter().map(|v| v > 0.5).collect::<Vec<bool>>();
+        let (floor, walls, ceiling) = (mask("floor"), mask("wall"), mask("ceiling"));
+        let k = Intrinsics::new(self.photo.width, self.photo.height, fov);
+        let (metres, cal) =
+            calibrate_relative_depth(&depth.image.data, depth.units, [&floor, &walls, &ceiling], &k, camera_height, 1)?;
+        let units = format!("{:?}", depth.units).to_lowercase();
+        let note = format!(
+            "; {units} depth made metric: shift {:.4} from the room's planes, scale from a camera height prior of \
+             {camera_height} m",
+            cal.shift
+        );
+        self.sources.entry("depth".into()).or_default().push_str(&note);
+        self.warnings.push(format!(
+            "scale: the depth is {units}, so the room's size in metres rests on the assumed camera height \
+             {camera_height} m (set it with camera_height); its proportions are measured"
+        ));
+        let missing = metres.iter().filter(|v| **v <= 0.0).count();
+        self.depth = Some(Depth {
+            image: Image::new(depth.image.width, depth.image.height, 1, metres)?,
+            units: DepthUnits::Metres,
+            missing,
+        });
+        self.depth_calibration = Some(cal);
+        Ok(())
     }
 
     fn stem(&self) -> String {
-        self.photo_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "photo".into())
+        stem_of(&self.photo_path)
     }
 
-    /// The depth, or an error listing how to supply it.
+    /// The depth in metres (measured, or relative made metric), or an error listing how to supply it.
     pub fn require_depth(&self) -> Result<&Depth> {
+        if let Some(d) = self.depth.as_ref().filter(|d| d.units != DepthUnits::Metres) {
+            return Err(Error::Invalid(format!(
+                "the depth of {} is {:?} (unknown scale and shift); its shift is found on the floor and walls, so it \
+                 needs a segmentation with a floor ({}.masks.png + {}.labels.json, or --masks/--labels)",
+                self.photo_path.display(),
+                d.units,
+                self.stem(),
+                self.stem()
+            )));
+        }
         self.depth.as_ref().ok_or_else(|| {
             Error::Invalid(format!(
                 "no depth for {}: put {s}.depth.exr (or a 16-bit {s}.depth.png) beside the photo, or pass --depth FILE \
@@ -226,13 +331,20 @@ impl Observations {
         let summary = json!({
             "photo": self.photo_path, "width": w, "height": h, "sources": self.sources,
             "fov_y_deg": self.fov_y_deg,
+            "fov_estimate": self.fov_estimate,
             "depth": self.depth.as_ref().map(|d| json!({"units": d.units, "missing_pixels": d.missing})),
+            "depth_calibration": self.depth_calibration,
+            "warnings": self.warnings,
             "instances": self.instances.as_ref().map(|m| &m.instances),
         });
         write_json(&p, &summary)?;
         written.push(p);
         Ok(written)
     }
+}
+
+fn stem_of(photo: &Path) -> String {
+    photo.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "photo".into())
 }
 
 fn write_json(path: &Path, v: &serde_json::Value) -> Result<()> {
