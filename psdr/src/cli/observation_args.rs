@@ -25,6 +25,9 @@ pub struct ObservationArgs {
     /// Camera height above the floor in metres, the prior that sets the scale when depth is relative.
     #[arg(long, default_value_t = DEFAULT_CAMERA_HEIGHT)]
     camera_height: f32,
+    /// Folder of ONNX models (depth.onnx, segmentation.onnx, fov.onnx; see the README) for what no file gives.
+    #[arg(long, env = "PSDR_MODELS")]
+    models: Option<PathBuf>,
 }
 
 impl ObservationArgs {
@@ -37,6 +40,7 @@ impl ObservationArgs {
             labels: self.labels.clone(),
             fov_y_deg: self.fov,
             camera_height: self.camera_height,
+            models: self.models.clone(),
         }
     }
 }

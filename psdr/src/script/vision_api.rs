@@ -27,6 +27,7 @@ fn observe(run: &RunRef, path: &str, opts: &Map) -> Rr<ObsHandle> {
             "depth" => inputs.depth = Some(PathBuf::from(text()?)),
             "masks" => inputs.masks = Some(PathBuf::from(text()?)),
             "labels" => inputs.labels = Some(PathBuf::from(text()?)),
+            "models" => inputs.models = Some(PathBuf::from(text()?)),
             "depth_units" => inputs.depth_units = text()?.parse().map_err(|e: String| rhai_err(Error::Invalid(e)))?,
             "fov" | "camera_height" => {
                 let f = v.as_float().or_else(|_| v.as_int().map(|i| i as f64));
@@ -39,7 +40,7 @@ fn observe(run: &RunRef, path: &str, opts: &Map) -> Rr<ObsHandle> {
             }
             other => {
                 return Err(rhai_err(Error::Invalid(format!(
-                    "observe: unknown option '{other}' (depth, depth_units, masks, labels, fov, camera_height)"
+                    "observe: unknown option '{other}' (depth, depth_units, masks, labels, models, fov, camera_height)"
                 ))))
             }
         }

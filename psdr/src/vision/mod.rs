@@ -1,13 +1,18 @@
 //! Photo observations: the photo (`photo`), depth (`depth`), instance segmentation with classes (`masks`,
 //! `classes`), the field of view, and their resolution from flags and files beside the photo
-//! (`observations`), and estimators for what is not given: the field of view from vanishing points
-//! (`line_segments`, `vanishing_points`).
+//! (`observations`), and estimators for what is not given: ONNX models for depth, segmentation and fov
+//! (`onnx_model` and one file per contract), the field of view from vanishing points (`line_segments`,
+//! `vanishing_points`).
 
 mod classes;
 mod depth;
 mod line_segments;
 mod masks;
 mod observations;
+mod onnx_depth;
+mod onnx_fov;
+mod onnx_model;
+mod onnx_segmentation;
 mod photo;
 mod vanishing_points;
 
@@ -16,5 +21,9 @@ pub use depth::{load_depth, Depth, DepthUnits};
 pub use line_segments::{detect_segments, Segment, SegmentOptions};
 pub use masks::{load_instances, Instance, Instances};
 pub use observations::{ObservationInputs, Observations, DEFAULT_CAMERA_HEIGHT, DEFAULT_FOV_Y_DEG};
+pub use onnx_depth::estimate_depth;
+pub use onnx_fov::estimate_fov_onnx;
+pub use onnx_model::{resize_bilinear, ModelOutput, OnnxModel};
+pub use onnx_segmentation::{estimate_instances, ADE20K_CLASSES};
 pub use photo::load_photo;
 pub use vanishing_points::{estimate_fov, FovEstimate, FovFailure, VanishingOptions, VanishingPoint};

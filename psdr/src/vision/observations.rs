@@ -1,10 +1,16 @@
 //! Resolving a photo's observations: for each quantity (depth, instance masks with labels, field of view)
 //! the first source that exists: a command-line flag, else a file beside the photo by its stem
-//! (`STEM.depth.exr` or `.depth.png`, `STEM.masks.png` + `STEM.labels.json`, `STEM.camera.json`). A quantity a
+//! (`STEM.depth.exr` or `.depth.png`, `STEM.masks.png` + `STEM.labels.json`, `STEM.camera.json`), else an ONNX
+//! model in the models folder (`--models`, `PSDR_MODELS`), else for the fov the vanishing points, else a
+//! stated default. A quantity a
 //! stage needs but nothing supplies is an error that lists the ways to supply it. `write` is `psdr observe`.
 
 use super::depth::{load_depth, Depth, DepthUnits};
 use super::masks::{load_instances, Instances};
+use super::onnx_depth::estimate_depth;
+use super::onnx_fov::estimate_fov_onnx;
+use super::onnx_model::OnnxModel;
+use super::onnx_segmentation::estimate_instances;
 use super::photo::load_photo;
 use super::vanishing_points::{estimate_fov, FovEstimate, VanishingOptions};
 use crate::error::{Error, Result};
@@ -25,6 +31,8 @@ pub struct ObservationInputs {
     pub fov_y_deg: Option<f32>,
     /// The camera's height above the floor (metres) that sets the scale of relative depth: a prior.
     pub camera_height: f32,
+    /// A folder of ONNX models (`depth.onnx`, `segmentation.onnx`, `fov.onnx`) for what no file gives.
+    pub models: Option<PathBuf>,
 }
 
 /// The camera height assumed when depth is relative: eye level of a standing photographer, a little low.
@@ -43,6 +51,7 @@ impl ObservationInputs {
             labels: None,
             fov_y_deg: None,
             camera_height: DEFAULT_CAMERA_HEIGHT,
+            models: std::env::var_os("PSDR_MODELS").map(PathBuf::from),
         }
     }
 
@@ -111,6 +120,16 @@ impl Observations {
         let photo = load_photo(&inputs.photo)?;
         let mut sources = BTreeMap::new();
         sources.insert("photo".to_string(), format!("file {}", inputs.photo.display()));
+        if let Some(dir) = inputs.models.as_ref().filter(|d| !d.is_dir()) {
+            return Err(Error::io(dir, "the models folder does not exist (--models or PSDR_MODELS)"));
+        }
+        // NAME.onnx in the models folder, when there is one.
+        let model = |name: &str| -> Result<Option<OnnxModel>> {
+            match inputs.models.as_ref().map(|d| d.join(format!("{name}.onnx"))).filter(|p| p.is_file()) {
+                Some(p) => OnnxModel::load(&p).map(Some),
+                None => Ok(None),
+            }
+        };
         let pick = |flag: &Option<PathBuf>, beside: &[PathBuf]| -> Option<(PathBuf, String)> {
             match flag {
                 Some(p) => Some((p.clone(), format!("flag {}", p.display()))),
@@ -125,7 +144,14 @@ impl Observations {
                 sources.insert("depth".into(), format!("{src} ({units})"));
                 Some(d)
             }
-            None => None,
+            None => match model("depth")? {
+                Some(mut m) => {
+                    let d = estimate_depth(&mut m, &photo)?;
+                    sources.insert("depth".into(), format!("model {} (disparity)", m.path.display()));
+                    Some(d)
+                }
+                None => None,
+            },
         };
         let instances = match pick(&inputs.masks, &[inputs.beside("masks.png")]) {
             Some((p, src)) => {
@@ -142,7 +168,14 @@ impl Observations {
                 );
                 Some(m)
             }
-            None => None,
+            None => match model("segmentation")? {
+                Some(mut m) => {
+                    let inst = estimate_instances(&mut m, &photo)?;
+                    sources.insert("instances".into(), format!("model {} (ADE20K classes)", m.path.display()));
+                    Some(inst)
+                }
+                None => None,
+            },
         };
         let mut warnings = vec![];
         let mut fov_estimate = None;
@@ -155,6 +188,12 @@ impl Observations {
             (None, p) if p.is_file() => {
                 let f = load_camera(&p)?;
                 sources.insert("fov".into(), format!("file {}", p.display()));
+                f
+            }
+            _ if inputs.models.as_ref().is_some_and(|d| d.join("fov.onnx").is_file()) => {
+                let mut m = model("fov")?.ok_or_else(|| Error::Invalid("fov model vanished".into()))?;
+                let f = estimate_fov_onnx(&mut m, &photo)?;
+                sources.insert("fov".into(), format!("model {}", m.path.display()));
                 f
             }
             _ => match estimate_fov(&photo, &VanishingOptions::default()) {
@@ -199,7 +238,11 @@ impl Observations {
             sources,
             warnings,
         };
-        obs.calibrate_depth(inputs.camera_height)?;
+        // A photo whose room the calibration cannot read keeps its relative depth; the reason is kept for
+        // whoever asks for metric depth.
+        if let Err(e) = obs.calibrate_depth(inputs.camera_height) {
+            obs.warnings.push(format!("depth: could not be made metric: {e}"));
+        }
         Ok(obs)
     }
 
@@ -245,9 +288,10 @@ impl Observations {
     /// The depth in metres (measured, or relative made metric), or an error listing how to supply it.
     pub fn require_depth(&self) -> Result<&Depth> {
         if let Some(d) = self.depth.as_ref().filter(|d| d.units != DepthUnits::Metres) {
+            let why = self.warnings.iter().find(|w| w.starts_with("depth: could not")).cloned().unwrap_or_default();
             return Err(Error::Invalid(format!(
                 "the depth of {} is {:?} (unknown scale and shift); its shift is found on the floor and walls, so it \
-                 needs a segmentation with a floor ({}.masks.png + {}.labels.json, or --masks/--labels)",
+                 needs a segmentation with a floor ({}.masks.png + {}.labels.json, or --masks/--labels). {why}",
                 self.photo_path.display(),
                 d.units,
                 self.stem(),

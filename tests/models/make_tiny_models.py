@@ -1,0 +1,132 @@
+#!/usr/bin/env python3
+"""Writes the tiny ONNX models psdr's tests run through ONNX Runtime (tests/tests/onnx_estimators.rs).
+
+Each follows psdr's input contract (one float32 NCHW input [1, 3, H, W] holding the photo's sRGB values
+normalised with ImageNet's mean and std) and undoes the normalisation first, so a test can tell whether psdr
+normalised, resized and laid out the input as the contract says, and whether it reads the output right.
+
+    pip install onnx numpy onnxruntime==1.31.1
+    python3 tests/models/make_tiny_models.py
+"""
+
+import os
+
+import numpy as np
+import onnx
+from onnx import TensorProto, helper, numpy_helper
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+MEAN = np.array([0.485, 0.456, 0.406], dtype=np.float32)
+STD = np.array([0.229, 0.224, 0.225], dtype=np.float32)
+
+
+def unnormalise(nodes, inits, x):
+    """x * std + mean per channel (back to sRGB 0..1)."""
+    inits.append(numpy_helper.from_array(STD.reshape(1, 3, 1, 1), "std"))
+    inits.append(numpy_helper.from_array(MEAN.reshape(1, 3, 1, 1), "mean"))
+    nodes.append(helper.make_node("Mul", [x, "std"], ["scaled"]))
+    nodes.append(helper.make_node("Add", ["scaled", "mean"], ["rgb"]))
+    return "rgb"
+
+
+def take_red(inits):
+    """Slice bounds for channel 0 of axis 1: starts [0], ends [1], axes [1]."""
+    inits.append(numpy_helper.from_array(np.array([0], dtype=np.int64), "zero"))
+    inits.append(numpy_helper.from_array(np.array([1], dtype=np.int64), "one"))
+
+
+def save(name, nodes, inits, inp, out):
+    graph = helper.make_graph(nodes, name, [inp], [out], inits)
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)], producer_name="psdr-tests")
+    model.ir_version = 8
+    onnx.checker.check_model(model)
+    path = os.path.join(HERE, name + ".onnx")
+    onnx.save(model, path)
+    return path
+
+
+def tiny_depth():
+    """Static [1,3,32,48] in; [1,1,16,24] out = the red channel, 2x2 average-pooled: checks resizing to a
+    static, non-square input and the output's orientation and upsampling."""
+    nodes, inits = [], []
+    rgb = unnormalise(nodes, inits, "image")
+    take_red(inits)
+    nodes.append(helper.make_node("Slice", [rgb, "zero", "one", "one"], ["red"]))
+    nodes.append(helper.make_node("AveragePool", ["red"], ["depth"], kernel_shape=[2, 2], strides=[2, 2]))
+    inp = helper.make_tensor_value_info("image", TensorProto.FLOAT, [1, 3, 32, 48])
+    out = helper.make_tensor_value_info("depth", TensorProto.FLOAT, [1, 1, 16, 24])
+    return save("tiny_depth", nodes, inits, inp, out)
+
+
+def tiny_segmentation():
+    """Dynamic [1,3,height,width] in; [1,150,height/2,width/2] logits out: 2x2 average pooling of the sRGB
+    colour, then logit[3] (floor) = 10 red, logit[0] (wall) = 10 green, logit[5] (ceiling) = 10 blue, every
+    other logit 1. Pure red is floor, green wall, blue ceiling; black is class 1 (building: the first of the
+    equal logits), which psdr keeps as an object. Checks dynamic sizes, argmax and the ADE20K mapping."""
+    nodes, inits = [], []
+    rgb = unnormalise(nodes, inits, "image")
+    nodes.append(helper.make_node("AveragePool", [rgb], ["pooled"], kernel_shape=[2, 2], strides=[2, 2]))
+    w = np.zeros((150, 3, 1, 1), dtype=np.float32)
+    b = np.ones(150, dtype=np.float32)
+    for cls, ch in [(3, 0), (0, 1), (5, 2)]:
+        w[cls, ch, 0, 0] = 10.0
+        b[cls] = 0.0
+    inits.append(numpy_helper.from_array(w, "conv_w"))
+    inits.append(numpy_helper.from_array(b, "conv_b"))
+    nodes.append(helper.make_node("Conv", ["pooled", "conv_w", "conv_b"], ["logits"]))
+    inp = helper.make_tensor_value_info("image", TensorProto.FLOAT, [1, 3, "height", "width"])
+    out = helper.make_tensor_value_info("logits", TensorProto.FLOAT, [1, 150, None, None])
+    return save("tiny_segmentation", nodes, inits, inp, out)
+
+
+def tiny_fov():
+    """Static [1,3,16,16] in; [1,1] out = 40 + 40 * mean(red): checks the normalisation (a wrong mean or std
+    moves the answer)."""
+    nodes, inits = [], []
+    rgb = unnormalise(nodes, inits, "image")
+    take_red(inits)
+    nodes.append(helper.make_node("Slice", [rgb, "zero", "one", "one"], ["red"]))
+    nodes.append(helper.make_node("ReduceMean", ["red"], ["mean_red"], keepdims=0))
+    inits.append(numpy_helper.from_array(np.array(40.0, dtype=np.float32), "forty"))
+    inits.append(numpy_helper.from_array(np.array([1, 1], dtype=np.int64), "shape11"))
+    nodes.append(helper.make_node("Mul", ["mean_red", "forty"], ["scaled_red"]))
+    nodes.append(helper.make_node("Add", ["scaled_red", "forty"], ["fov_scalar"]))
+    nodes.append(helper.make_node("Reshape", ["fov_scalar", "shape11"], ["fov"]))
+    inp = helper.make_tensor_value_info("image", TensorProto.FLOAT, [1, 3, 16, 16])
+    out = helper.make_tensor_value_info("fov", TensorProto.FLOAT, [1, 1])
+    return save("tiny_fov", nodes, inits, inp, out)
+
+
+def normalise(rgb):
+    return ((rgb - MEAN.reshape(1, 3, 1, 1)) / STD.reshape(1, 3, 1, 1)).astype(np.float32)
+
+
+def self_check(paths):
+    """Runs each model with ONNX Runtime against numpy's answer."""
+    import onnxruntime as ort
+
+    depth, seg, fov = (ort.InferenceSession(p, providers=["CPUExecutionProvider"]) for p in paths)
+    rgb = np.zeros((1, 3, 32, 48), dtype=np.float32)
+    rgb[0, 0] = np.linspace(0, 1, 48, dtype=np.float32)[None, :]
+    got = depth.run(None, {"image": normalise(rgb)})[0]
+    want = rgb[:, :1].reshape(1, 1, 16, 2, 24, 2).mean(axis=(3, 5))
+    assert got.shape == (1, 1, 16, 24) and np.abs(got - want).max() < 1e-5
+
+    rgb = np.zeros((1, 3, 10, 12), dtype=np.float32)
+    rgb[0, 0, :, 0:4] = 1
+    rgb[0, 1, :, 4:8] = 1
+    rgb[0, 2, :, 8:10] = 1
+    got = seg.run(None, {"image": normalise(rgb)})[0]
+    assert got.shape == (1, 150, 5, 6)
+    assert list(got[0].argmax(axis=0)[0]) == [3, 3, 0, 0, 5, 1], got[0].argmax(axis=0)
+
+    rgb = np.full((1, 3, 16, 16), 0.5, dtype=np.float32)
+    got = fov.run(None, {"image": normalise(rgb)})[0]
+    assert got.shape == (1, 1) and abs(got[0, 0] - 60.0) < 1e-4, got
+
+
+if __name__ == "__main__":
+    paths = [tiny_depth(), tiny_segmentation(), tiny_fov()]
+    self_check(paths)
+    for p in paths:
+        print(f"{os.path.basename(p)}: {os.path.getsize(p)} bytes")
