@@ -223,6 +223,60 @@ fn room_script_fits_the_box_of_a_rendered_room() {
     let opt = &res["stages"][0]["optimizations"][0];
     assert!(opt["final_loss"].as_f64().unwrap() <= opt["first_loss"].as_f64().unwrap() + 1e-3, "{opt}");
     assert!(out.join("scene.json").is_file() && out.join("render.png").is_file());
+    // result.json's room: the fitted box, its planes and the camera relative to it.
+    let rr = &res["room"];
+    assert!((rr["camera"]["height_above_floor"].as_f64().unwrap() - r.cam.y as f64).abs() < 0.05, "{rr}");
+    assert!((rr["camera"]["pitch_deg"].as_f64().unwrap() - r.pitch as f64).abs() < 1.0, "{rr}");
+    assert_eq!(rr["camera"]["fov_y_deg"].as_f64().unwrap() as f32, r.fov);
+    assert_eq!(rr["planes"].as_object().unwrap().len(), 6);
+    // The stage's scene renders and exports to Mitsuba.
+    let stage_scene = psdr::scene::load_scene(&out.join("stages/01_room/scene.json")).unwrap();
+    let frame = render_cpu(&SceneData::build(&stage_scene).unwrap(), &stage_scene.settings, &|_, _| {});
+    assert!(frame.radiance.iter().all(|v| v.is_finite()) && frame.radiance.iter().any(|v| *v > 0.0));
+    let xml = psdr::export::mitsuba::export_mitsuba(&stage_scene, &dir.join("mitsuba")).unwrap();
+    assert!(std::fs::read_to_string(xml).unwrap().contains("<scene"));
+
+    // The same photo with relative depth (disparity: 2/z + 0.4, unknown to psdr) given by flag: the box's
+    // proportions come out within 5 %, its scale from the camera-height prior, and result.json says so.
+    let rel: Vec<f32> = f.depth.iter().map(|&z| if z > 0.0 { 2.0 / z + 0.4 } else { 0.0 }).collect();
+    let rel_path = dir.join("relative.exr");
+    psdr::output::write_exr_channels(&rel_path, iw, ih, &[("Z".into(), rel)]).unwrap();
+    let photo = dir.join("room.png");
+    let out = dir.join("out-relative");
+    run_script(
+        ScriptRun {
+            script: std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/room.rhai"),
+            photo: photo.clone(),
+            out: out.clone(),
+            sets: vec!["room_iters=10".into()],
+            options: RunOptions {
+                quiet: true,
+                preview_spp: 2,
+                observations: Some(psdr::vision::ObservationInputs {
+                    depth: Some(rel_path),
+                    depth_units: DepthUnits::Disparity,
+                    ..psdr::vision::ObservationInputs::new(&photo)
+                }),
+                ..Default::default()
+            },
+            command: "test".into(),
+        },
+        Box::new(CpuBackend),
+    )
+    .unwrap();
+    let res: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
+    let (rr, obs) = (&res["room"], &res["recorded"]["observations"]);
+    eprintln!("relative: {rr}\n{obs}");
+    assert!(obs["depth_calibration"]["camera_height_prior"].as_f64() == Some(1.5), "{obs}");
+    assert!(obs["warnings"].as_array().unwrap().iter().any(|w| w.as_str().unwrap().contains("camera height")));
+    let (h, mut got) = (rr["height"].as_f64().unwrap(), [rr["width"].as_f64().unwrap(), rr["depth"].as_f64().unwrap()]);
+    got.sort_by(f64::total_cmp);
+    for k in 0..2 {
+        let ratio = got[k] / h / (want[k] / r.h as f64);
+        assert!((ratio - 1.0).abs() < 0.05, "ratio {k}: {ratio} ({got:?} / {h} vs {want:?} / {})", r.h);
+    }
+    assert!((rr["camera"]["height_above_floor"].as_f64().unwrap() - 1.5).abs() < 0.05, "{rr}");
 }
 
 /// Stability where the inputs are poor: depth with 5 % multiplicative noise per pixel and a smooth 3 % bias
