@@ -8,6 +8,7 @@
 
 pub mod backend;
 pub mod cli;
+pub mod db;
 pub mod error;
 pub mod export;
 pub mod grad;

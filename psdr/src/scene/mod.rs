@@ -18,6 +18,7 @@ pub use camera::Camera;
 pub use load::load_scene;
 pub use material::{Color, Material, Scalar, UvTransform};
 pub use mesh::{Emitter, MeshPart, Object};
+pub use obj::{load_obj, MtlMaterial, ObjMesh};
 pub use pose::Pose;
 pub use primitives::{box_mesh, rectangle_mesh, sphere_mesh};
 pub use save::save_scene;

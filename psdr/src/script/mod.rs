@@ -8,6 +8,7 @@
 
 mod crops;
 mod engine;
+mod object_api;
 mod optimize_api;
 mod run_context;
 mod scene_api;

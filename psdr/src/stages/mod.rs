@@ -2,12 +2,14 @@
 //! (`room_init`), its geometry (`point_cloud`, `plane_fit`) and the room as a scene (`room_scene`).
 
 mod depth_calibration;
+mod object_init;
 mod plane_fit;
 mod point_cloud;
 mod room_init;
 mod room_scene;
 
 pub use depth_calibration::{calibrate_relative_depth, DepthCalibration};
+pub use object_init::{init_objects, Candidate, ObjectInitOptions, ObjectPlacement, SkippedInstance};
 pub use plane_fit::{fit_plane, fit_plane_in_depth, ransac_plane, symmetric_eigen, Plane};
 pub use point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};
 pub use room_init::{init_room, RoomEstimate, RoomInitOptions};

@@ -1,0 +1,94 @@
+//! The object stage in scripts: `objects_init(scene, obs, #{db, ...})` places a retrieved model for every
+//! furniture instance in the scene (in place) and returns what it placed, `obs.instance_mask(id)` gives an
+//! instance's mask as a loss target. Placements, alternatives and skipped instances go into result.json.
+
+use super::engine::{rhai_err, Rr, RunRef};
+use super::scene_api::SceneHandle;
+use super::vision_api::ObsHandle;
+use crate::db::ModelSet;
+use crate::error::Error;
+use crate::loss::{Image, Tensor};
+use crate::scene::Material;
+use crate::stages::{init_objects, ObjectInitOptions};
+use glam::Vec3;
+use rhai::{Array, Dynamic, Engine, Map};
+use std::path::PathBuf;
+
+fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &Map) -> crate::Result<Array> {
+    let mut o = ObjectInitOptions::default();
+    let mut db: Option<PathBuf> = None;
+    for (k, v) in opts {
+        if k == "db" {
+            db = Some(PathBuf::from(
+                v.clone().into_string().map_err(|_| Error::Invalid("objects_init: 'db' must be a path".into()))?,
+            ));
+            continue;
+        }
+        let num = v
+            .as_float()
+            .or_else(|_| v.as_int().map(|i| i as f64))
+            .map_err(|_| Error::Invalid(format!("objects_init: '{k}' must be a number")))?;
+        match k.as_str() {
+            "min_pixels" => o.min_pixels = num.max(0.0) as usize,
+            "erode" => o.erode = num.max(0.0) as usize,
+            "yaws" => o.yaws = num.max(1.0) as usize,
+            "sweep_width" => o.sweep_width = num.max(8.0) as u32,
+            "top_k" => o.top_k = num.max(1.0) as usize,
+            "depth_weight" => o.depth_weight = num as f32,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "objects_init: unknown option '{other}' (db, min_pixels, erode, yaws, sweep_width, top_k, depth_weight)"
+                )))
+            }
+        }
+    }
+    let db = db.ok_or_else(|| Error::Invalid("objects_init: give the model folder as #{ db: PATH }".into()))?;
+    let models = ModelSet::from_folder(&db)?;
+    let depth = obs.0.require_depth()?;
+    let inst = obs.0.require_instances()?;
+    let (placed, skipped) = init_objects(&scene.0, &depth.image.data, inst, &models, &o);
+    // One material per placed object, so later stages can give each its own.
+    let mut out = Array::new();
+    let mut records = vec![];
+    for (p, mut object) in placed {
+        scene.0.materials.push(Material::diffuse(&p.name, Vec3::splat(0.5)));
+        let m = scene.0.materials.len() - 1;
+        object.parts.iter_mut().for_each(|part| part.material = m);
+        scene.0.objects.push(object);
+        let mut entry = Map::new();
+        entry.insert("name".into(), Dynamic::from(p.name.clone()));
+        entry.insert("instance".into(), Dynamic::from(p.instance as i64));
+        entry.insert("class".into(), Dynamic::from(p.class.clone()));
+        entry.insert("model".into(), Dynamic::from(p.chosen.model.clone()));
+        entry.insert("iou".into(), Dynamic::from(p.chosen.iou as f64));
+        out.push(Dynamic::from(entry));
+        records.push(p);
+    }
+    let summary = serde_json::json!({
+        "db": db,
+        "models_indexed": models.models.len(),
+        "models_skipped": models.skipped.iter().map(|(p, why)| serde_json::json!({"file": p, "reason": why})).collect::<Vec<_>>(),
+        "placed": records,
+        "skipped": skipped,
+    });
+    run.borrow_mut().recorded.insert("objects_init".into(), summary);
+    Ok(out)
+}
+
+fn instance_mask(obs: &ObsHandle, id: i64) -> crate::Result<Tensor> {
+    let m = obs.0.require_instances()?;
+    let id = u16::try_from(id).map_err(|_| Error::Invalid(format!("instance id {id} is not in 1..65535")))?;
+    if !m.instances.iter().any(|i| i.id == id) {
+        return Err(Error::Invalid(format!("no instance {id} in the segmentation")));
+    }
+    Ok(Tensor::constant(Image::new(m.width, m.height, 1, m.instance_mask(id))?))
+}
+
+pub fn register(engine: &mut Engine, run: &RunRef) {
+    let r = run.clone();
+    // The scene comes first: Rhai passes only a first argument by reference.
+    engine.register_fn("objects_init", move |scene: &mut SceneHandle, obs: ObsHandle, opts: Map| -> Rr<Array> {
+        objects_init(&r, &obs, scene, &opts).map_err(rhai_err)
+    });
+    engine.register_fn("instance_mask", |obs: &mut ObsHandle, id: i64| instance_mask(obs, id).map_err(rhai_err));
+}

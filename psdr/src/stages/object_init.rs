@@ -1,0 +1,338 @@
+//! The object stage's initialisation and weight-free retrieval (PSDR-Room, "Object stage"): every furniture
+//! instance big enough to matter gets a model and a pose. The instance's eroded mask is back-projected with the
+//! depth; its centre on the floor is the median of the points, its height the top of the points. Each model of
+//! the instance's class is then rendered at that place over a yaw sweep (uniform scale from the height), scored
+//! by mask IoU against the instance (pixels of other instances, possible occluders, left out) less the depth
+//! misfit; the best (model, yaw) wins and the runners-up are kept so a user can swap. A class without models
+//! gets a box of the observed size, and says so.
+
+use super::point_cloud::{erode, surface_points, Intrinsics};
+use crate::db::{ModelEntry, ModelSet};
+use crate::render::{render_cpu, SceneData};
+use crate::scene::{box_mesh, Camera, Material, MeshPart, Object, Pose, RenderSettings, Scene};
+use crate::vision::{ClassKind, Instances};
+use glam::{Quat, Vec3};
+use std::path::PathBuf;
+
+/// Knobs of the initialisation.
+#[derive(Clone, Debug)]
+pub struct ObjectInitOptions {
+    /// Instances with fewer pixels are skipped (model no more than the photo shows).
+    pub min_pixels: usize,
+    pub erode: usize,
+    /// Yaw angles tried per model (evenly spaced over 360 degrees).
+    pub yaws: usize,
+    /// Width of the sweep's mask renders (the photo is compared at this size).
+    pub sweep_width: u32,
+    /// Alternatives kept per instance.
+    pub top_k: usize,
+    /// Weight of the relative depth misfit against the IoU in the sweep's score.
+    pub depth_weight: f32,
+}
+
+impl Default for ObjectInitOptions {
+    fn default() -> Self {
+        ObjectInitOptions { min_pixels: 100, erode: 1, yaws: 16, sweep_width: 128, top_k: 5, depth_weight: 0.5 }
+    }
+}
+
+/// A model and how well it fitted.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Candidate {
+    pub model: String,
+    pub path: Option<PathBuf>,
+    pub licence: String,
+    pub yaw_deg: f32,
+    pub iou: f32,
+    pub score: f32,
+}
+
+/// One instance's placement: the scene object's name, its pose, the chosen model and the alternatives.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ObjectPlacement {
+    pub instance: u16,
+    pub class: String,
+    pub name: String,
+    pub translation: [f32; 3],
+    pub yaw_deg: f32,
+    pub scale: f32,
+    pub chosen: Candidate,
+    pub alternatives: Vec<Candidate>,
+    pub points: usize,
+}
+
+/// An instance that got no object, and why.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SkippedInstance {
+    pub instance: u16,
+    pub class: String,
+    pub reason: String,
+}
+
+fn percentile(v: &mut [f32], q: f32) -> f32 {
+    v.sort_by(f32::total_cmp);
+    v[((v.len() - 1) as f32 * q).round() as usize]
+}
+
+/// The target at the sweep's size: 1 inside the instance, 0 outside, None where another instance (a possible
+/// occluder) covers the pixel; and the observed depth.
+struct SweepTarget {
+    w: usize,
+    h: usize,
+    mask: Vec<Option<bool>>,
+    depth: Vec<f32>,
+}
+
+fn sweep_target(inst: &Instances, depth: &[f32], id: u16, w: usize, h: usize) -> SweepTarget {
+    let (pw, ph) = (inst.width, inst.height);
+    let mut mask = vec![None; w * h];
+    let mut d = vec![0.0; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let (sx, sy) = ((x * pw + pw / 2) / w, (y * ph + ph / 2) / h);
+            let p = sy.min(ph - 1) * pw + sx.min(pw - 1);
+            let other = inst.ids[p] != 0 && inst.ids[p] != id && {
+                let kind = inst.instances.iter().find(|i| i.id == inst.ids[p]).map(|i| i.kind);
+                kind != Some(ClassKind::Structure)
+            };
+            mask[y * w + x] = if other { None } else { Some(inst.ids[p] == id) };
+            d[y * w + x] = depth[p];
+        }
+    }
+    SweepTarget { w, h, mask, depth: d }
+}
+
+/// IoU over the pixels the target does not leave out, less `depth_weight` x the median relative depth
+/// misfit where both cover.
+fn score(target: &SweepTarget, ids: &[u32], depth: &[f32], depth_weight: f32) -> (f32, f32) {
+    let (mut inter, mut union) = (0usize, 0usize);
+    let mut misfit = vec![];
+    for p in 0..target.w * target.h {
+        let Some(t) = target.mask[p] else { continue };
+        let r = ids[p] == 0;
+        inter += (t && r) as usize;
+        union += (t || r) as usize;
+        if t && r && target.depth[p] > 0.0 {
+            misfit.push((depth[p] - target.depth[p]).abs() / target.depth[p]);
+        }
+    }
+    let iou = if union == 0 { 0.0 } else { inter as f32 / union as f32 };
+    let m = if misfit.is_empty() { 1.0 } else { percentile(&mut misfit, 0.5).min(1.0) };
+    (iou, iou - depth_weight * m)
+}
+
+/// Renders `parts` alone at `pose` with the photo's camera at the sweep's size: object ids and depth.
+fn render_alone(camera: &Camera, parts: &[MeshPart], pose: Pose, w: u32, h: u32) -> Option<(Vec<u32>, Vec<f32>)> {
+    let mut cam = camera.clone();
+    (cam.width, cam.height) = (w, h);
+    let scene = Scene {
+        camera: cam,
+        settings: RenderSettings { spp: 1, max_depth: 1, rr_depth: 1, seed: 0 },
+        materials: vec![Material::diffuse("m", Vec3::splat(0.5))],
+        textures: vec![],
+        objects: vec![Object {
+            name: "o".into(),
+            parts: parts
+                .iter()
+                .cloned()
+                .map(|mut p| {
+                    p.material = 0;
+                    p
+                })
+                .collect(),
+            pose,
+            emitter: None,
+        }],
+        source: None,
+        requires_grad: vec![],
+    };
+    let f = render_cpu(&SceneData::build(&scene).ok()?, &scene.settings, &|_, _| {});
+    Some((f.object_id, f.depth))
+}
+
+/// The median-depth point of the pixels where `inside` holds, in world coordinates, if there are any.
+fn median_point(cam: &Camera, k: &Intrinsics, depth: &[f32], inside: impl Fn(usize) -> bool) -> Option<Vec3> {
+    let mut xs = vec![];
+    let mut ys = vec![];
+    let mut zs = vec![];
+    for (p, &z) in depth.iter().enumerate().take(k.width * k.height) {
+        if inside(p) && z > 0.0 {
+            xs.push((p % k.width) as f32);
+            ys.push((p / k.width) as f32);
+            zs.push(z);
+        }
+    }
+    if xs.is_empty() {
+        return None;
+    }
+    let (x, y, z) = (percentile(&mut xs, 0.5), percentile(&mut ys, 0.5), percentile(&mut zs, 0.5));
+    let c = k.point(x as usize, y as usize, z);
+    Some(cam.origin + cam.right() * c.x + cam.up * c.y + cam.forward * c.z)
+}
+
+/// Slides the object on the floor until the median visible point of its render meets the instance's (two
+/// steps): the visible points are the object's near side, so its centre starts too close to the camera, and
+/// by how much depends on the model and its yaw.
+fn align(cam: &Camera, parts: &[MeshPart], mut pose: Pose, target: &SweepTarget, w: u32, h: u32) -> Pose {
+    let k = Intrinsics::new(w as usize, h as usize, cam.fov_y_deg);
+    let Some(want) = median_point(cam, &k, &target.depth, |p| target.mask[p] == Some(true)) else { return pose };
+    for _ in 0..2 {
+        let Some((ids, depth)) = render_alone(cam, parts, pose, w, h) else { break };
+        let Some(got) = median_point(cam, &k, &depth, |p| ids[p] == 0 && target.mask[p].is_some()) else { break };
+        let step = want - got;
+        pose.translation += Vec3::new(step.x, 0.0, step.z);
+    }
+    pose
+}
+
+/// Places every furniture instance of `inst` in `scene` (whose camera is the photo's and whose `floor`
+/// object, if any, gives the floor height). Returns the objects to add with their placements, and the skipped
+/// instances with reasons.
+pub fn init_objects(
+    scene: &Scene,
+    depth: &[f32],
+    inst: &Instances,
+    models: &ModelSet,
+    opts: &ObjectInitOptions,
+) -> (Vec<(ObjectPlacement, Object)>, Vec<SkippedInstance>) {
+    let cam = &scene.camera;
+    let (w, h) = (inst.width, inst.height);
+    let k = Intrinsics::new(w, h, cam.fov_y_deg);
+    let (right, up, fwd) = (cam.right(), cam.up, cam.forward);
+    let to_world = |p: Vec3| cam.origin + right * p.x + up * p.y + fwd * p.z;
+    let floor_y = scene.objects.iter().find(|o| o.name == "floor").map_or(0.0, |o| o.pose.translation.y);
+    let sw = opts.sweep_width.min(w as u32).max(8);
+    let sh = ((sw as usize * h) / w).max(6) as u32;
+    let mut placed = vec![];
+    let mut skipped = vec![];
+    for i in inst.instances.iter().filter(|i| i.kind != ClassKind::Structure) {
+        let skip = |reason: String| SkippedInstance { instance: i.id, class: i.class.clone(), reason };
+        if i.kind == ClassKind::Opening {
+            skipped.push(skip("an opening (window or door) belongs to the walls, not a model".into()));
+            continue;
+        }
+        if i.pixels < opts.min_pixels {
+            skipped.push(skip(format!("{} pixels, under the {} pixel minimum", i.pixels, opts.min_pixels)));
+            continue;
+        }
+        let mask: Vec<bool> = inst.ids.iter().map(|&v| v == i.id).collect();
+        let pts: Vec<Vec3> =
+            surface_points(depth, &erode(&mask, w, h, opts.erode), &k).into_iter().map(|s| to_world(s.p)).collect();
+        if pts.len() < 10 {
+            skipped.push(skip(format!("only {} pixels with depth inside the mask", pts.len())));
+            continue;
+        }
+        let (mut xs, mut zs, mut ys): (Vec<f32>, Vec<f32>, Vec<f32>) =
+            (pts.iter().map(|p| p.x).collect(), pts.iter().map(|p| p.z).collect(), pts.iter().map(|p| p.y).collect());
+        let centre = Vec3::new(percentile(&mut xs, 0.5), floor_y, percentile(&mut zs, 0.5));
+        let top = (percentile(&mut ys, 0.95) - floor_y).max(0.1);
+        let footprint = Vec3::new(
+            (percentile(&mut xs, 0.9) - percentile(&mut xs, 0.1)).max(0.2),
+            top,
+            (percentile(&mut zs, 0.9) - percentile(&mut zs, 0.1)).max(0.2),
+        );
+        let target = sweep_target(inst, depth, i.id, sw as usize, sh as usize);
+        // Candidates: the class's models, else a box of the observed size.
+        let entries: Vec<&ModelEntry> = models.of_class(&i.class);
+        let mut options: Vec<(Candidate, Vec<MeshPart>, f32)> = vec![];
+        if entries.is_empty() {
+            let mut b = box_mesh(footprint, false);
+            b.positions.iter_mut().for_each(|v| v.y += footprint.y / 2.0);
+            let c = Candidate {
+                model: format!("box (no model of class {})", i.class),
+                path: None,
+                licence: "psdr (generated)".into(),
+                yaw_deg: 0.0,
+                iou: 0.0,
+                score: f32::MIN,
+            };
+            options.push((c, vec![b], 1.0));
+        }
+        for e in entries {
+            match e.load_parts() {
+                Ok(parts) => {
+                    let scale = (top / e.size().y.max(1e-3)).clamp(0.3, 3.0);
+                    let c = Candidate {
+                        model: e.name.clone(),
+                        path: Some(e.path.clone()),
+                        licence: e.licence.clone(),
+                        yaw_deg: 0.0,
+                        iou: 0.0,
+                        score: f32::MIN,
+                    };
+                    options.push((c, parts, scale));
+                }
+                Err(err) => skipped.push(skip(format!("model {} not loadable: {err}", e.name))),
+            }
+        }
+        // The yaw sweep per candidate, each pose slid into place before it is scored.
+        let mut centres: Vec<Vec3> = vec![centre; options.len()];
+        for ((c, parts, scale), best_centre) in options.iter_mut().zip(centres.iter_mut()) {
+            for step in 0..opts.yaws.max(1) {
+                let yaw = 360.0 * step as f32 / opts.yaws.max(1) as f32;
+                let start = Pose {
+                    translation: centre,
+                    rotation: Quat::from_rotation_y(yaw.to_radians()),
+                    scale: Vec3::splat(*scale),
+                };
+                let pose = align(cam, parts, start, &target, sw, sh);
+                let Some((ids, d)) = render_alone(cam, parts, pose, sw, sh) else { continue };
+                let (iou, s) = score(&target, &ids, &d, opts.depth_weight);
+                if s > c.score {
+                    (c.yaw_deg, c.iou, c.score) = (yaw, iou, s);
+                    *best_centre = pose.translation;
+                }
+            }
+        }
+        let mut order: Vec<usize> = (0..options.len()).collect();
+        order.sort_by(|&a, &b| options[b].0.score.total_cmp(&options[a].0.score));
+        let options: Vec<(Candidate, Vec<MeshPart>, f32, Vec3)> =
+            order.into_iter().map(|i| (options[i].0.clone(), options[i].1.clone(), options[i].2, centres[i])).collect();
+        let Some((mut chosen, parts, scale, mut centre)) = options.first().cloned() else {
+            skipped.push(skip("no candidate model could be rendered".into()));
+            continue;
+        };
+        // The winner's yaw refined between the sweep's steps by halving.
+        let mut step = 180.0 / opts.yaws.max(1) as f32;
+        for _ in 0..4 {
+            for yaw in [chosen.yaw_deg - step, chosen.yaw_deg + step] {
+                let start = Pose {
+                    translation: centre,
+                    rotation: Quat::from_rotation_y(yaw.to_radians()),
+                    scale: Vec3::splat(scale),
+                };
+                let pose = align(cam, &parts, start, &target, sw, sh);
+                let Some((ids, d)) = render_alone(cam, &parts, pose, sw, sh) else { continue };
+                let (iou, s) = score(&target, &ids, &d, opts.depth_weight);
+                if s > chosen.score {
+                    (chosen.yaw_deg, chosen.iou, chosen.score, centre) =
+                        (yaw.rem_euclid(360.0), iou, s, pose.translation);
+                }
+            }
+            step /= 2.0;
+        }
+        let name = format!("{}_{}", i.class, i.id);
+        let alternatives = options.iter().skip(1).take(opts.top_k.saturating_sub(1)).map(|o| o.0.clone()).collect();
+        let pose = Pose {
+            translation: centre,
+            rotation: Quat::from_rotation_y(chosen.yaw_deg.to_radians()),
+            scale: Vec3::splat(scale),
+        };
+        let object = Object { name: name.clone(), parts, pose, emitter: None };
+        placed.push((
+            ObjectPlacement {
+                instance: i.id,
+                class: i.class.clone(),
+                name,
+                translation: centre.to_array(),
+                yaw_deg: chosen.yaw_deg,
+                scale,
+                chosen,
+                alternatives,
+                points: pts.len(),
+            },
+            object,
+        ));
+    }
+    (placed, skipped)
+}
