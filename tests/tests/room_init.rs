@@ -200,7 +200,7 @@ fn room_script_fits_the_box_of_a_rendered_room() {
             script: std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/room.rhai"),
             photo,
             out: out.clone(),
-            sets: vec!["room_iters=20".into()],
+            sets: vec!["room_iters=20".into(), "object_iters=10".into()],
             options: RunOptions { quiet: true, preview_spp: 2, ..Default::default() },
             command: "test".into(),
         },
@@ -248,7 +248,7 @@ fn room_script_fits_the_box_of_a_rendered_room() {
             script: std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/room.rhai"),
             photo: photo.clone(),
             out: out.clone(),
-            sets: vec!["room_iters=10".into()],
+            sets: vec!["room_iters=10".into(), "object_iters=0".into()],
             options: RunOptions {
                 quiet: true,
                 preview_spp: 2,

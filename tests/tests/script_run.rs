@@ -214,6 +214,12 @@ fn bad_input_gets_a_clear_error() {
             optimize(s, #{ params: ["light/light/radiance"], iterations: 3, loss: |r| mean(r.radiance) });"#,
             "unknown option 'iterations'",
         ),
+        (
+            "lr-pattern",
+            r#"let s = load_scene(PHOTO_DIR + "/start.json");
+            optimize(s, #{ params: ["light/light/radiance"], lr: #{ "light/*": 0.1 }, iters: 1, loss: |r| mean(r.radiance) });"#,
+            "lr pattern 'light/*' matches none",
+        ),
     ];
     for (name, text, want) in cases {
         let (out, r) = run_text(&format!("bad-{name}"), text);

@@ -158,6 +158,19 @@ pub fn specs(scene: &Scene, opts: &Map) -> Result<Vec<ParamSpec>> {
             out.push(spec);
         }
     }
+    // An `lr` pattern that matches nothing is a typo (patterns match whole paths: `*/yaw` does not match
+    // `object/chair/yaw`), not a request for the default rate.
+    if let Some(m) = opts.get("lr").filter(|v| v.is_map()).map(|v| v.clone().cast::<Map>()) {
+        for k in m.keys() {
+            if !out.iter().any(|s| glob_match(k, &s.path.to_string())) {
+                let paths: Vec<String> = out.iter().map(|s| s.path.to_string()).collect();
+                return Err(Error::Invalid(format!(
+                    "optimize: lr pattern '{k}' matches none of the selected parameters ({}); '*' does not cross '/'",
+                    paths.join(", ")
+                )));
+            }
+        }
+    }
     Ok(out)
 }
 

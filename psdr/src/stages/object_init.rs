@@ -59,6 +59,8 @@ pub struct ObjectPlacement {
     pub chosen: Candidate,
     pub alternatives: Vec<Candidate>,
     pub points: usize,
+    /// "floor", or "raised" (its lowest points are above the floor: on another object, a wall, hanging).
+    pub support: String,
 }
 
 /// An instance that got no object, and why.
@@ -224,8 +226,12 @@ pub fn init_objects(
         }
         let (mut xs, mut zs, mut ys): (Vec<f32>, Vec<f32>, Vec<f32>) =
             (pts.iter().map(|p| p.x).collect(), pts.iter().map(|p| p.z).collect(), pts.iter().map(|p| p.y).collect());
-        let centre = Vec3::new(percentile(&mut xs, 0.5), floor_y, percentile(&mut zs, 0.5));
-        let top = (percentile(&mut ys, 0.95) - floor_y).max(0.1);
+        // Support: the floor, unless the lowest points seen are well above it (on another object, on a wall,
+        // hanging): then the object starts at that height.
+        let bottom = percentile(&mut ys, 0.05);
+        let base = if bottom > floor_y + 0.15 { bottom } else { floor_y };
+        let centre = Vec3::new(percentile(&mut xs, 0.5), base, percentile(&mut zs, 0.5));
+        let top = (percentile(&mut ys, 0.95) - base).max(0.1);
         let footprint = Vec3::new(
             (percentile(&mut xs, 0.9) - percentile(&mut xs, 0.1)).max(0.2),
             top,
@@ -330,6 +336,7 @@ pub fn init_objects(
                 chosen,
                 alternatives,
                 points: pts.len(),
+                support: if base > floor_y { "raised" } else { "floor" }.into(),
             },
             object,
         ));
