@@ -64,7 +64,7 @@ fn main() -> anyhow::Result<()> {
                     script: repo("scripts/room.rhai"),
                     photo: photo.clone(),
                     out: out.clone(),
-                    sets: vec![format!("room_iters={iters}")],
+                    sets: vec![format!("room_iters={iters}"), "object_iters=0".into()],
                     options: RunOptions { quiet: true, preview_spp: 1, ..Default::default() },
                     command: "bench_room".into(),
                 },
