@@ -101,28 +101,63 @@ def normalise(rgb):
     return ((rgb - MEAN.reshape(1, 3, 1, 1)) / STD.reshape(1, 3, 1, 1)).astype(np.float32)
 
 
+def pool2(a):
+    """2x2 average pooling, stride 2, of an NCHW array with even H and W."""
+    n, c, h, w = a.shape
+    return a.reshape(n, c, h // 2, 2, w // 2, 2).mean(axis=(3, 5))
+
+
+def seg_logits(rgb):
+    """numpy's answer for tiny_segmentation: every logit 1, except floor (3), wall (0), ceiling (5)."""
+    p = pool2(rgb)
+    want = np.ones((1, 150) + p.shape[2:], dtype=np.float32)
+    want[:, 3], want[:, 0], want[:, 5] = 10 * p[:, 0], 10 * p[:, 1], 10 * p[:, 2]
+    return want
+
+
+def check(label, got, want, tol=1e-5):
+    assert got.shape == want.shape, (label, got.shape, want.shape)
+    err = float(np.abs(got - want).max())
+    assert err <= tol, (label, err)
+    print(f"ok {label}: shape {list(got.shape)}, max |onnxruntime - numpy| = {err:.2e}")
+
+
 def self_check(paths):
-    """Runs each model with ONNX Runtime against numpy's answer."""
+    """Runs each model with ONNX Runtime against numpy's answer (to 1e-5)."""
     import onnxruntime as ort
 
     depth, seg, fov = (ort.InferenceSession(p, providers=["CPUExecutionProvider"]) for p in paths)
+
+    # depth: a horizontal red ramp, 0 at the left to 1 at the right
     rgb = np.zeros((1, 3, 32, 48), dtype=np.float32)
     rgb[0, 0] = np.linspace(0, 1, 48, dtype=np.float32)[None, :]
     got = depth.run(None, {"image": normalise(rgb)})[0]
-    want = rgb[:, :1].reshape(1, 1, 16, 2, 24, 2).mean(axis=(3, 5))
-    assert got.shape == (1, 1, 16, 24) and np.abs(got - want).max() < 1e-5
+    check("tiny_depth red ramp", got, pool2(rgb[:, :1]))
+    assert np.all(np.diff(got[0, 0], axis=1) > 0), "depth should grow left to right"
 
+    # segmentation: red | green | blue | black stripes; then a dynamic size psdr would feed (multiples of 14)
     rgb = np.zeros((1, 3, 10, 12), dtype=np.float32)
     rgb[0, 0, :, 0:4] = 1
     rgb[0, 1, :, 4:8] = 1
     rgb[0, 2, :, 8:10] = 1
     got = seg.run(None, {"image": normalise(rgb)})[0]
-    assert got.shape == (1, 150, 5, 6)
-    assert list(got[0].argmax(axis=0)[0]) == [3, 3, 0, 0, 5, 1], got[0].argmax(axis=0)
+    check("tiny_segmentation stripes 10x12", got, seg_logits(rgb))
+    classes = got[0].argmax(axis=0)[0].tolist()
+    assert classes == [3, 3, 0, 0, 5, 1], classes
+    print(f"ok tiny_segmentation argmax per column: {classes} (red floor, green wall, blue ceiling, black 1)")
+    rng = np.random.default_rng(0)
+    rgb = rng.random((1, 3, 28, 42), dtype=np.float32)
+    got = seg.run(None, {"image": normalise(rgb)})[0]
+    check("tiny_segmentation random 28x42", got, seg_logits(rgb))
 
-    rgb = np.full((1, 3, 16, 16), 0.5, dtype=np.float32)
+    # fov: uniform red 0.5 (green, blue 0) -> 40 + 40 * 0.5 = 60 degrees; then a random image
+    rgb = np.zeros((1, 3, 16, 16), dtype=np.float32)
+    rgb[0, 0] = 0.5
     got = fov.run(None, {"image": normalise(rgb)})[0]
-    assert got.shape == (1, 1) and abs(got[0, 0] - 60.0) < 1e-4, got
+    check("tiny_fov uniform red 0.5", got, np.array([[60.0]], dtype=np.float32))
+    rgb = rng.random((1, 3, 16, 16), dtype=np.float32)
+    got = fov.run(None, {"image": normalise(rgb)})[0]
+    check("tiny_fov random", got, np.array([[40 + 40 * rgb[0, 0].mean()]], dtype=np.float32))
 
 
 if __name__ == "__main__":

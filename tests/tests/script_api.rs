@@ -79,7 +79,12 @@ fn every_documented_function_is_exercised_and_every_registered_one_documented() 
             photo: repo("examples/fit/target.png"),
             out: dir.join("out"),
             sets: vec![],
-            options: RunOptions { quiet: true, preview_spp: 2, ..Default::default() },
+            options: RunOptions {
+                quiet: true,
+                preview_spp: 2,
+                db: Some(repo("examples/models")),
+                ..Default::default()
+            },
             command: "test".into(),
         },
         Box::new(CpuBackend),

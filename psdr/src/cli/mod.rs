@@ -1,5 +1,6 @@
 //! The `psdr` command line (clap). One file per subcommand.
 
+mod db_cmd;
 mod export_cmd;
 mod grad_cmd;
 mod materials_cmd;
@@ -36,6 +37,8 @@ enum Command {
     Run(run_cmd::RunArgs),
     /// The procedural material library: list, render maps, contact sheet.
     Materials(materials_cmd::MaterialsArgs),
+    /// The furniture model database: build (index libraries and folders), list, show.
+    Db(db_cmd::DbArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -47,6 +50,7 @@ pub fn main() -> ExitCode {
         Command::Grad(a) => grad_cmd::run(a),
         Command::Run(a) => run_cmd::run(a),
         Command::Observe(a) => observe_cmd::run(a),
+        Command::Db(a) => db_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

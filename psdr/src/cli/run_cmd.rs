@@ -38,6 +38,11 @@ pub struct RunArgs {
     /// No progress bars or log lines.
     #[arg(long)]
     quiet: bool,
+    /// Furniture model database (a folder indexed by `psdr db build`, or of OBJ files) for the object stage;
+    /// default: PSDR_DB, else the installed Sweet Home 3D libraries (indexed once into ~/.cache/psdr/db), else
+    /// the script's fallback (the repository's small set).
+    #[arg(long)]
+    db: Option<PathBuf>,
     /// Observation sources for PHOTO (the script's `observe(PHOTO)`), instead of the files beside it.
     #[command(flatten)]
     observations: ObservationArgs,
@@ -58,6 +63,7 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
                 quiet: a.quiet,
                 preview_spp: a.preview_spp,
                 observations: Some(a.observations.inputs(&a.photo)),
+                db: a.db,
             },
             command,
         },

@@ -1,7 +1,35 @@
 //! The furniture model database: an index of OBJ models with categories, real sizes and licences, from which
-//! the object stage retrieves candidates. So far: a folder of OBJ files with an optional `catalog.json`
-//! (`model_set`).
+//! the object stage retrieves candidates. `model_set`: the models of a folder (with or without a
+//! `catalog.json`); `sh3f`: Sweet Home 3D libraries; `build`: `psdr db build`, indexing libraries, 3D-FUTURE
+//! and OBJ folders into one catalog.
 
+mod build;
 mod model_set;
+mod sh3f;
 
-pub use model_set::{ModelEntry, ModelSet};
+pub use build::{build_db, BuildReport, SWEET_HOME_3D_FURNITURE};
+pub use model_set::{entry_for, ModelEntry, ModelSet};
+pub use sh3f::{class_of, extract_sh3f, read_sh3f, Sh3fLibrary, Sh3fModel};
+
+/// The model folder a run uses: `explicit` (--db or the script's choice) if given; else `PSDR_DB`; else the
+/// index of the installed Sweet Home 3D libraries in ~/.cache/psdr/db (built on first use, then reused); else
+/// `fallback` (the repository's small model set).
+pub fn default_db(explicit: Option<&std::path::Path>, fallback: &std::path::Path) -> crate::Result<std::path::PathBuf> {
+    use std::path::{Path, PathBuf};
+    if let Some(p) = explicit {
+        return Ok(p.to_path_buf());
+    }
+    if let Some(p) = std::env::var_os("PSDR_DB") {
+        return Ok(PathBuf::from(p));
+    }
+    let installed = Path::new(SWEET_HOME_3D_FURNITURE);
+    if let (Some(home), true) = (std::env::var_os("HOME"), installed.is_dir()) {
+        let cache = PathBuf::from(home).join(".cache/psdr/db");
+        if !cache.join("catalog.json").is_file() {
+            eprintln!("indexing the Sweet Home 3D furniture libraries into {} (once)...", cache.display());
+            build_db(&[installed.to_path_buf()], &cache)?;
+        }
+        return Ok(cache);
+    }
+    Ok(fallback.to_path_buf())
+}

@@ -35,9 +35,10 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
             "sweep_width" => o.sweep_width = num.max(8.0) as u32,
             "top_k" => o.top_k = num.max(1.0) as usize,
             "depth_weight" => o.depth_weight = num as f32,
+            "max_candidates" => o.max_candidates = num.max(1.0) as usize,
             other => {
                 return Err(Error::Invalid(format!(
-                    "objects_init: unknown option '{other}' (db, min_pixels, erode, yaws, sweep_width, top_k, depth_weight)"
+                    "objects_init: unknown option '{other}' (db, min_pixels, erode, yaws, sweep_width, top_k, depth_weight, max_candidates)"
                 )))
             }
         }
@@ -91,4 +92,11 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
         objects_init(&r, &obs, scene, &opts).map_err(rhai_err)
     });
     engine.register_fn("instance_mask", |obs: &mut ObsHandle, id: i64| instance_mask(obs, id).map_err(rhai_err));
+    let r = run.clone();
+    engine.register_fn("model_db", move |fallback: &str| -> Rr<String> {
+        let explicit = r.borrow().options.db.clone();
+        crate::db::default_db(explicit.as_deref(), std::path::Path::new(fallback))
+            .map(|p| p.to_string_lossy().into_owned())
+            .map_err(rhai_err)
+    });
 }

@@ -24,6 +24,9 @@ pub struct RunOptions {
     /// Where `observe(PHOTO)` takes the photo's observations from (the command line's flags); None: the
     /// files beside the photo.
     pub observations: Option<crate::vision::ObservationInputs>,
+    /// The model database `model_db(...)` returns (`--db`); None: PSDR_DB, the installed Sweet Home 3D
+    /// libraries' index, or the script's fallback.
+    pub db: Option<PathBuf>,
 }
 
 pub struct CurrentStage {

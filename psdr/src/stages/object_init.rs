@@ -28,11 +28,21 @@ pub struct ObjectInitOptions {
     pub top_k: usize,
     /// Weight of the relative depth misfit against the IoU in the sweep's score.
     pub depth_weight: f32,
+    /// Models of the class rendered in the sweep, the closest in real size first.
+    pub max_candidates: usize,
 }
 
 impl Default for ObjectInitOptions {
     fn default() -> Self {
-        ObjectInitOptions { min_pixels: 100, erode: 1, yaws: 16, sweep_width: 128, top_k: 5, depth_weight: 0.5 }
+        ObjectInitOptions {
+            min_pixels: 100,
+            erode: 1,
+            yaws: 16,
+            sweep_width: 128,
+            top_k: 5,
+            depth_weight: 0.5,
+            max_candidates: 8,
+        }
     }
 }
 
@@ -123,33 +133,69 @@ fn score(target: &SweepTarget, ids: &[u32], depth: &[f32], depth_weight: f32) ->
     (iou, iou - depth_weight * m)
 }
 
-/// Renders `parts` alone at `pose` with the photo's camera at the sweep's size: object ids and depth.
-fn render_alone(camera: &Camera, parts: &[MeshPart], pose: Pose, w: u32, h: u32) -> Option<(Vec<u32>, Vec<f32>)> {
-    let mut cam = camera.clone();
-    (cam.width, cam.height) = (w, h);
-    let scene = Scene {
-        camera: cam,
-        settings: RenderSettings { spp: 1, max_depth: 1, rr_depth: 1, seed: 0 },
-        materials: vec![Material::diffuse("m", Vec3::splat(0.5))],
-        textures: vec![],
-        objects: vec![Object {
-            name: "o".into(),
-            parts: parts
-                .iter()
-                .cloned()
-                .map(|mut p| {
-                    p.material = 0;
-                    p
-                })
-                .collect(),
-            pose,
-            emitter: None,
-        }],
-        source: None,
-        requires_grad: vec![],
-    };
-    let f = render_cpu(&SceneData::build(&scene).ok()?, &scene.settings, &|_, _| {});
-    Some((f.object_id, f.depth))
+/// Renders one model alone with the photo's camera at the sweep's size. The model's BVH is built once at the
+/// identity pose; a pose (translation, yaw, uniform scale) is rendered by moving the camera into the model's
+/// frame instead, so a sweep costs renders, not rebuilds.
+struct PoseRenderer {
+    camera: Camera,
+    scene: Scene,
+    data: SceneData,
+}
+
+impl PoseRenderer {
+    fn new(camera: &Camera, parts: &[MeshPart], w: u32, h: u32) -> Option<PoseRenderer> {
+        let mut cam = camera.clone();
+        (cam.width, cam.height) = (w, h);
+        let parts = parts
+            .iter()
+            .cloned()
+            .map(|mut p| {
+                p.material = 0;
+                p
+            })
+            .collect();
+        let scene = Scene {
+            camera: cam.clone(),
+            settings: RenderSettings { spp: 1, max_depth: 1, rr_depth: 1, seed: 0 },
+            materials: vec![Material::diffuse("m", Vec3::splat(0.5))],
+            textures: vec![],
+            objects: vec![Object { name: "o".into(), parts, pose: Pose::default(), emitter: None }],
+            source: None,
+            requires_grad: vec![],
+        };
+        let data = SceneData::build(&scene).ok()?;
+        Some(PoseRenderer { camera: cam, scene, data })
+    }
+
+    /// Object ids and depth (world units) with the model at `pose` (uniform scale).
+    fn render(&mut self, pose: Pose) -> Option<(Vec<u32>, Vec<f32>)> {
+        let (inv, s) = (pose.rotation.inverse(), pose.scale.x.max(1e-6));
+        let c = &self.camera;
+        let mut local = c.clone();
+        local.origin = inv * (c.origin - pose.translation) / s;
+        local.forward = inv * c.forward;
+        local.up = inv * c.up;
+        self.scene.camera = local;
+        self.data = self.data.rebuild(&self.scene).ok()?;
+        let f = render_cpu(&self.data, &self.scene.settings, &|_, _| {});
+        Some((f.object_id, f.depth.iter().map(|d| d * s).collect()))
+    }
+}
+
+/// True when, under most columns of the instance's mask, the pixels just below its lowest pixel belong to
+/// another furniture instance.
+fn rests_on_furniture(inst: &Instances, id: u16) -> bool {
+    let (w, h) = (inst.width, inst.height);
+    let (mut columns, mut on_furniture) = (0, 0);
+    for x in 0..w {
+        let Some(y) = (0..h).rev().find(|&y| inst.ids[y * w + x] == id) else { continue };
+        columns += 1;
+        let below = (y + 2).min(h - 1);
+        let other = inst.ids[below * w + x];
+        let kind = inst.instances.iter().find(|i| i.id == other && other != id).map(|i| i.kind);
+        on_furniture += usize::from(kind == Some(ClassKind::Furniture));
+    }
+    columns > 0 && on_furniture * 2 > columns
 }
 
 /// The median-depth point of the pixels where `inside` holds, in world coordinates, if there are any.
@@ -175,11 +221,11 @@ fn median_point(cam: &Camera, k: &Intrinsics, depth: &[f32], inside: impl Fn(usi
 /// Slides the object on the floor until the median visible point of its render meets the instance's (two
 /// steps): the visible points are the object's near side, so its centre starts too close to the camera, and
 /// by how much depends on the model and its yaw.
-fn align(cam: &Camera, parts: &[MeshPart], mut pose: Pose, target: &SweepTarget, w: u32, h: u32) -> Pose {
+fn align(cam: &Camera, renderer: &mut PoseRenderer, mut pose: Pose, target: &SweepTarget, w: u32, h: u32) -> Pose {
     let k = Intrinsics::new(w as usize, h as usize, cam.fov_y_deg);
     let Some(want) = median_point(cam, &k, &target.depth, |p| target.mask[p] == Some(true)) else { return pose };
     for _ in 0..2 {
-        let Some((ids, depth)) = render_alone(cam, parts, pose, w, h) else { break };
+        let Some((ids, depth)) = renderer.render(pose) else { break };
         let Some(got) = median_point(cam, &k, &depth, |p| ids[p] == 0 && target.mask[p].is_some()) else { break };
         let step = want - got;
         pose.translation += Vec3::new(step.x, 0.0, step.z);
@@ -226,10 +272,12 @@ pub fn init_objects(
         }
         let (mut xs, mut zs, mut ys): (Vec<f32>, Vec<f32>, Vec<f32>) =
             (pts.iter().map(|p| p.x).collect(), pts.iter().map(|p| p.z).collect(), pts.iter().map(|p| p.y).collect());
-        // Support: the floor, unless the lowest points seen are well above it (on another object, on a wall,
-        // hanging): then the object starts at that height.
-        let bottom = percentile(&mut ys, 0.05);
-        let base = if bottom > floor_y + 0.15 { bottom } else { floor_y };
+        // Support: the floor, unless the lowest points seen are well above it and something else holds it:
+        // another piece of furniture right under its mask (a lamp on a table), or it is a lamp (hanging). A
+        // table whose legs hide behind a sofa still stands on the floor.
+        let bottom = percentile(&mut ys, 0.02);
+        let raised = bottom > floor_y + 0.15 && (i.class == "lamp" || rests_on_furniture(inst, i.id));
+        let base = if raised { bottom } else { floor_y };
         let centre = Vec3::new(percentile(&mut xs, 0.5), base, percentile(&mut zs, 0.5));
         let top = (percentile(&mut ys, 0.95) - base).max(0.1);
         let footprint = Vec3::new(
@@ -239,7 +287,15 @@ pub fn init_objects(
         );
         let target = sweep_target(inst, depth, i.id, sw as usize, sh as usize);
         // Candidates: the class's models, else a box of the observed size.
-        let entries: Vec<&ModelEntry> = models.of_class(&i.class);
+        // A large class is cut to the models whose real size is closest to what the points show (height, and
+        // the wider footprint side, which the visible points underestimate: weighted half).
+        let mut entries: Vec<&ModelEntry> = models.of_class(&i.class);
+        let misfit = |e: &ModelEntry| {
+            let s = e.size();
+            (s.y / top).ln().abs() + 0.5 * (s.x.max(s.z) / footprint.x.max(footprint.z)).ln().abs()
+        };
+        entries.sort_by(|a, b| misfit(a).total_cmp(&misfit(b)));
+        entries.truncate(opts.max_candidates.max(1));
         let mut options: Vec<(Candidate, Vec<MeshPart>, f32)> = vec![];
         if entries.is_empty() {
             let mut b = box_mesh(footprint, false);
@@ -274,6 +330,7 @@ pub fn init_objects(
         // The yaw sweep per candidate, each pose slid into place before it is scored.
         let mut centres: Vec<Vec3> = vec![centre; options.len()];
         for ((c, parts, scale), best_centre) in options.iter_mut().zip(centres.iter_mut()) {
+            let Some(mut renderer) = PoseRenderer::new(cam, parts, sw, sh) else { continue };
             for step in 0..opts.yaws.max(1) {
                 let yaw = 360.0 * step as f32 / opts.yaws.max(1) as f32;
                 let start = Pose {
@@ -281,8 +338,8 @@ pub fn init_objects(
                     rotation: Quat::from_rotation_y(yaw.to_radians()),
                     scale: Vec3::splat(*scale),
                 };
-                let pose = align(cam, parts, start, &target, sw, sh);
-                let Some((ids, d)) = render_alone(cam, parts, pose, sw, sh) else { continue };
+                let pose = align(cam, &mut renderer, start, &target, sw, sh);
+                let Some((ids, d)) = renderer.render(pose) else { continue };
                 let (iou, s) = score(&target, &ids, &d, opts.depth_weight);
                 if s > c.score {
                     (c.yaw_deg, c.iou, c.score) = (yaw, iou, s);
@@ -299,6 +356,7 @@ pub fn init_objects(
             continue;
         };
         // The winner's yaw refined between the sweep's steps by halving.
+        let Some(mut renderer) = PoseRenderer::new(cam, &parts, sw, sh) else { continue };
         let mut step = 180.0 / opts.yaws.max(1) as f32;
         for _ in 0..4 {
             for yaw in [chosen.yaw_deg - step, chosen.yaw_deg + step] {
@@ -307,8 +365,8 @@ pub fn init_objects(
                     rotation: Quat::from_rotation_y(yaw.to_radians()),
                     scale: Vec3::splat(scale),
                 };
-                let pose = align(cam, &parts, start, &target, sw, sh);
-                let Some((ids, d)) = render_alone(cam, &parts, pose, sw, sh) else { continue };
+                let pose = align(cam, &mut renderer, start, &target, sw, sh);
+                let Some((ids, d)) = renderer.render(pose) else { continue };
                 let (iou, s) = score(&target, &ids, &d, opts.depth_weight);
                 if s > chosen.score {
                     (chosen.yaw_deg, chosen.iou, chosen.score, centre) =
