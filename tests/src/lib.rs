@@ -9,6 +9,7 @@ use psdr::render::{render_cpu, Frame, SceneData};
 use psdr::scene::{Camera, Emitter, Material, MeshPart, Object, Pose, RenderSettings, Scene};
 use std::path::PathBuf;
 
+pub mod furniture;
 pub mod rooms;
 
 /// An empty scene seen by a look-at camera.

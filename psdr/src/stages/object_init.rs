@@ -30,6 +30,8 @@ pub struct ObjectInitOptions {
     pub depth_weight: f32,
     /// Models of the class rendered in the sweep, the closest in real size first.
     pub max_candidates: usize,
+    /// Weight of |ln scale| (how far a model must be scaled to the observed height) in the score.
+    pub scale_weight: f32,
 }
 
 impl Default for ObjectInitOptions {
@@ -42,6 +44,7 @@ impl Default for ObjectInitOptions {
             top_k: 5,
             depth_weight: 0.5,
             max_candidates: 8,
+            scale_weight: 1.0,
         }
     }
 }
@@ -114,9 +117,10 @@ fn sweep_target(inst: &Instances, depth: &[f32], id: u16, w: usize, h: usize) ->
     SweepTarget { w, h, mask, depth: d }
 }
 
-/// IoU over the pixels the target does not leave out, less `depth_weight` x the median relative depth
-/// misfit where both cover.
-fn score(target: &SweepTarget, ids: &[u32], depth: &[f32], depth_weight: f32) -> (f32, f32) {
+/// IoU over the pixels the target does not leave out, less `depth_weight` x the mean depth misfit where both
+/// cover, in units of the object's size (a bookcase turned to show its back panel is a shelf depth off, which
+/// is small against the camera distance but not against the bookcase).
+fn score(target: &SweepTarget, ids: &[u32], depth: &[f32], size: f32, depth_weight: f32) -> (f32, f32) {
     let (mut inter, mut union) = (0usize, 0usize);
     let mut misfit = vec![];
     for p in 0..target.w * target.h {
@@ -125,12 +129,22 @@ fn score(target: &SweepTarget, ids: &[u32], depth: &[f32], depth_weight: f32) ->
         inter += (t && r) as usize;
         union += (t || r) as usize;
         if t && r && target.depth[p] > 0.0 {
-            misfit.push((depth[p] - target.depth[p]).abs() / target.depth[p]);
+            misfit.push(((depth[p] - target.depth[p]).abs() / size.max(0.05)).min(1.0));
         }
     }
     let iou = if union == 0 { 0.0 } else { inter as f32 / union as f32 };
-    let m = if misfit.is_empty() { 1.0 } else { percentile(&mut misfit, 0.5).min(1.0) };
+    let m = if misfit.is_empty() { 1.0 } else { misfit.iter().sum::<f32>() / misfit.len() as f32 };
     (iou, iou - depth_weight * m)
+}
+
+/// The larger horizontal extent of a model's parts.
+fn footprint_size(parts: &[MeshPart]) -> f32 {
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for v in parts.iter().flat_map(|p| &p.positions) {
+        lo = lo.min(*v);
+        hi = hi.max(*v);
+    }
+    (hi.x - lo.x).max(hi.z - lo.z).max(0.05)
 }
 
 /// Renders one model alone with the photo's camera at the sweep's size. The model's BVH is built once at the
@@ -331,6 +345,9 @@ pub fn init_objects(
         let mut centres: Vec<Vec3> = vec![centre; options.len()];
         for ((c, parts, scale), best_centre) in options.iter_mut().zip(centres.iter_mut()) {
             let Some(mut renderer) = PoseRenderer::new(cam, parts, sw, sh) else { continue };
+            let size = footprint_size(parts) * *scale;
+            // Real models have real sizes: scaling one far from 1 to fit is evidence against it.
+            let prior = opts.scale_weight * scale.ln().abs();
             for step in 0..opts.yaws.max(1) {
                 let yaw = 360.0 * step as f32 / opts.yaws.max(1) as f32;
                 let start = Pose {
@@ -340,9 +357,9 @@ pub fn init_objects(
                 };
                 let pose = align(cam, &mut renderer, start, &target, sw, sh);
                 let Some((ids, d)) = renderer.render(pose) else { continue };
-                let (iou, s) = score(&target, &ids, &d, opts.depth_weight);
-                if s > c.score {
-                    (c.yaw_deg, c.iou, c.score) = (yaw, iou, s);
+                let (iou, s) = score(&target, &ids, &d, size, opts.depth_weight);
+                if s - prior > c.score {
+                    (c.yaw_deg, c.iou, c.score) = (yaw, iou, s - prior);
                     *best_centre = pose.translation;
                 }
             }
@@ -357,6 +374,7 @@ pub fn init_objects(
         };
         // The winner's yaw refined between the sweep's steps by halving.
         let Some(mut renderer) = PoseRenderer::new(cam, &parts, sw, sh) else { continue };
+        let (size, prior) = (footprint_size(&parts) * scale, opts.scale_weight * scale.ln().abs());
         let mut step = 180.0 / opts.yaws.max(1) as f32;
         for _ in 0..4 {
             for yaw in [chosen.yaw_deg - step, chosen.yaw_deg + step] {
@@ -367,10 +385,10 @@ pub fn init_objects(
                 };
                 let pose = align(cam, &mut renderer, start, &target, sw, sh);
                 let Some((ids, d)) = renderer.render(pose) else { continue };
-                let (iou, s) = score(&target, &ids, &d, opts.depth_weight);
-                if s > chosen.score {
+                let (iou, s) = score(&target, &ids, &d, size, opts.depth_weight);
+                if s - prior > chosen.score {
                     (chosen.yaw_deg, chosen.iou, chosen.score, centre) =
-                        (yaw.rem_euclid(360.0), iou, s, pose.translation);
+                        (yaw.rem_euclid(360.0), iou, s - prior, pose.translation);
                 }
             }
             step /= 2.0;

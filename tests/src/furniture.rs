@@ -1,0 +1,185 @@
+//! Parametric furniture made of boxes, as OBJ text, for the object stage's tests: each class has six variants
+//! of different proportions, so a test can hide the true model among five same-class distractors.
+
+/// OBJ text accumulating axis-aligned boxes (outward faces).
+#[derive(Default)]
+pub struct BoxModel {
+    text: String,
+    vertices: usize,
+}
+
+impl BoxModel {
+    /// A box spanning `lo` to `hi` (metres).
+    pub fn add(&mut self, lo: [f32; 3], hi: [f32; 3]) -> &mut Self {
+        let c = |i: usize| {
+            [
+                if i & 1 == 0 { lo[0] } else { hi[0] },
+                if i & 2 == 0 { lo[1] } else { hi[1] },
+                if i & 4 == 0 { lo[2] } else { hi[2] },
+            ]
+        };
+        for i in 0..8 {
+            let v = c(i);
+            self.text += &format!("v {} {} {}\n", v[0], v[1], v[2]);
+        }
+        let b = self.vertices + 1;
+        // Corner index bits: x = 1, y = 2, z = 4; quads counter-clockwise seen from outside.
+        for q in [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]] {
+            self.text +=
+                &format!("f {} {} {}\nf {} {} {}\n", b + q[0], b + q[1], b + q[2], b + q[0], b + q[2], b + q[3]);
+        }
+        self.vertices += 8;
+        self
+    }
+
+    pub fn obj(&self) -> String {
+        self.text.clone()
+    }
+}
+
+/// Classes the generator knows.
+pub const CLASSES: [&str; 6] = ["table", "chair", "sofa", "cabinet", "lamp", "bookcase"];
+
+/// Variant `k` (0..6) of a class, standing on y = 0, centred on x = z = 0, front toward +z.
+pub fn variant(class: &str, k: usize) -> String {
+    let f = |a: [f32; 6]| a[k % 6];
+    let mut m = BoxModel::default();
+    match class {
+        "table" => {
+            let (w, d, h, leg) = (
+                f([1.2, 1.6, 0.8, 1.0, 1.4, 0.9]),
+                f([0.8, 0.9, 0.8, 0.5, 0.7, 0.9]),
+                f([0.75, 0.74, 0.72, 0.45, 0.9, 0.6]),
+                0.06,
+            );
+            m.add([-w / 2.0, h - 0.04, -d / 2.0], [w / 2.0, h, d / 2.0]);
+            for (sx, sz) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
+                let (x, z) = (sx * (w / 2.0 - leg), sz * (d / 2.0 - leg));
+                m.add([x - leg / 2.0, 0.0, z - leg / 2.0], [x + leg / 2.0, h - 0.04, z + leg / 2.0]);
+            }
+        }
+        "chair" => {
+            let (w, seat, back) = (
+                f([0.45, 0.5, 0.42, 0.55, 0.48, 0.4]),
+                f([0.45, 0.48, 0.42, 0.5, 0.4, 0.46]),
+                f([0.9, 1.0, 0.8, 1.1, 0.75, 0.95]),
+            );
+            m.add([-w / 2.0, seat - 0.05, -w / 2.0], [w / 2.0, seat, w / 2.0]);
+            m.add([-w / 2.0, seat, -w / 2.0], [w / 2.0, back, -w / 2.0 + 0.05]);
+            for (sx, sz) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
+                let (x, z) = (sx * (w / 2.0 - 0.03), sz * (w / 2.0 - 0.03));
+                m.add([x - 0.025, 0.0, z - 0.025], [x + 0.025, seat - 0.05, z + 0.025]);
+            }
+        }
+        "sofa" => {
+            let (w, d, back, arm) = (
+                f([2.0, 1.6, 2.4, 1.8, 2.2, 1.4]),
+                f([0.9, 0.85, 1.0, 0.8, 0.95, 0.9]),
+                f([0.85, 0.8, 0.9, 0.75, 1.0, 0.8]),
+                f([0.2, 0.15, 0.25, 0.1, 0.2, 0.3]),
+            );
+            m.add([-w / 2.0, 0.0, -d / 2.0], [w / 2.0, 0.42, d / 2.0]);
+            m.add([-w / 2.0, 0.42, -d / 2.0], [w / 2.0, back, -d / 2.0 + 0.2]);
+            m.add([-w / 2.0, 0.42, -d / 2.0], [-w / 2.0 + arm, 0.62, d / 2.0]);
+            m.add([w / 2.0 - arm, 0.42, -d / 2.0], [w / 2.0, 0.62, d / 2.0]);
+        }
+        "cabinet" => {
+            let (w, d, h) = (
+                f([0.8, 1.2, 0.6, 1.0, 0.5, 1.6]),
+                f([0.45, 0.5, 0.4, 0.35, 0.55, 0.45]),
+                f([0.9, 0.8, 1.2, 1.8, 0.7, 0.85]),
+            );
+            m.add([-w / 2.0, 0.08, -d / 2.0], [w / 2.0, h, d / 2.0]);
+            m.add([-w / 2.0 + 0.03, 0.0, -d / 2.0 + 0.03], [w / 2.0 - 0.03, 0.08, d / 2.0 - 0.03]);
+            m.add([-0.15, h * 0.75, d / 2.0], [0.15, h * 0.75 + 0.03, d / 2.0 + 0.03]);
+        }
+        "lamp" => {
+            let (base, h, shade) = (
+                f([0.12, 0.15, 0.1, 0.2, 0.12, 0.08]),
+                f([0.5, 0.6, 0.4, 0.7, 0.45, 0.55]),
+                f([0.3, 0.35, 0.25, 0.4, 0.2, 0.3]),
+            );
+            m.add([-base / 2.0, 0.0, -base / 2.0], [base / 2.0, 0.03, base / 2.0]);
+            m.add([-0.015, 0.03, -0.015], [0.015, h * 0.7, 0.015]);
+            m.add([-shade / 2.0, h * 0.7, -shade / 2.0], [shade / 2.0, h, shade / 2.0]);
+        }
+        _ => {
+            // bookcase
+            let (w, d, h, n) = (
+                f([0.8, 1.0, 0.6, 1.2, 0.9, 0.7]),
+                f([0.3, 0.35, 0.28, 0.4, 0.32, 0.25]),
+                f([1.8, 2.0, 1.2, 1.6, 0.9, 2.1]),
+                [4, 5, 3, 4, 2, 6][k % 6],
+            );
+            m.add([-w / 2.0, 0.0, -d / 2.0], [-w / 2.0 + 0.03, h, d / 2.0]);
+            m.add([w / 2.0 - 0.03, 0.0, -d / 2.0], [w / 2.0, h, d / 2.0]);
+            m.add([-w / 2.0, 0.0, -d / 2.0], [w / 2.0, h, -d / 2.0 + 0.02]);
+            for s in 0..=n {
+                let y = h * s as f32 / n as f32;
+                m.add([-w / 2.0, (y - 0.02).max(0.0), -d / 2.0], [w / 2.0, y.max(0.02), d / 2.0]);
+            }
+        }
+    }
+    m.obj()
+}
+
+/// Writes every class's six variants (`CLASS_K.obj`) into `dir`.
+pub fn write_model_set(dir: &std::path::Path) {
+    std::fs::create_dir_all(dir).unwrap();
+    for class in CLASSES {
+        for k in 0..6 {
+            std::fs::write(dir.join(format!("{class}_{k}.obj")), variant(class, k)).unwrap();
+        }
+    }
+}
+
+/// The refinement of scripts/room.rhai's object stage, on the objects of start.json.
+pub fn refine_script(names: &[String], iters: usize) -> String {
+    let list = names.iter().map(|n| format!("\"{n}\"")).collect::<Vec<_>>().join(", ");
+    format!(
+        r#"
+let s = load_scene(PHOTO_DIR + "/start.json");
+let names = [{list}];
+let targets = [];
+let params = [];
+for n in names {{
+    targets.push(load_image(PHOTO_DIR + "/" + n + ".mask.exr"));
+    params.push(#{{ select: "object/" + n + "/translation", free: "xz" }});
+    params.push("object/" + n + "/yaw");
+    params.push(#{{ select: "object/" + n + "/scale", space: "uniform_log" }});
+}}
+let depth = load_image(PHOTO_DIR + "/depth.exr");
+let union = targets[0];
+for t in targets {{ union = union + t; }}
+let scale = masked_mean(depth, union);
+let width = depth.width;
+let sigmas = [0.0, 0.02, 0.04, 0.08];
+let weights = [1.0, 2.0, 4.0, 8.0];
+optimize(s, #{{
+    params: params, iters: {iters}, spp: 4, seed: 1,
+    lr: #{{ "object/*/translation": 0.02, "object/*/yaw": 0.05, "object/*/scale": 0.03 }},
+    schedule: #{{ kind: "exponential", gamma: 0.96 }},
+    loss: |r| {{
+        let masks = 0.0;
+        for k in 0..names.len() {{
+            let m = r.mask(names[k]);
+            for l in 0..sigmas.len() {{
+                let sigma = sigmas[l] * width;
+                masks = masks + if sigma > 0.0 {{
+                    weights[l] * mean(abs(blur(m, sigma) - blur(targets[k], sigma)))
+                }} else {{
+                    weights[l] * mean(abs(m - targets[k]))
+                }};
+            }}
+        }}
+        #{{ masks: masks, depth: 2.0 * masked_mean(abs(r.depth - depth), union) / scale }}
+    }},
+}});
+let out = #{{}};
+for n in names {{
+    out[n] = #{{ t: s.get("object/" + n + "/translation"), yaw: s.get("object/" + n + "/yaw"), scale: s.get("object/" + n + "/scale") }};
+}}
+record("poses", out);
+"#
+    )
+}
