@@ -152,9 +152,12 @@ let depth = load_image(PHOTO_DIR + "/depth.exr");
 let union = targets[0];
 for t in targets {{ union = union + t; }}
 let scale = masked_mean(depth, union);
-let width = depth.width;
-let sigmas = [0.0, 0.02, 0.04, 0.08];
-let weights = [1.0, 2.0, 4.0, 8.0];
+// Gaussian pyramids of the masks (full size to 1/16): coarse levels pull objects that do not yet overlap
+// their instance. The targets' pyramids are built once.
+let levels = 5;
+let weights = [1.0, 2.0, 4.0, 8.0, 16.0];
+let target_pyramids = [];
+for t in targets {{ target_pyramids.push(pyramid(t, levels)); }}
 optimize(s, #{{
     params: params, iters: {iters}, spp: 4, seed: 1,
     lr: #{{ "object/*/translation": 0.02, "object/*/yaw": 0.05, "object/*/scale": 0.03 }},
@@ -162,17 +165,12 @@ optimize(s, #{{
     loss: |r| {{
         let masks = 0.0;
         for k in 0..names.len() {{
-            let m = r.mask(names[k]);
-            for l in 0..sigmas.len() {{
-                let sigma = sigmas[l] * width;
-                masks = masks + if sigma > 0.0 {{
-                    weights[l] * mean(abs(blur(m, sigma) - blur(targets[k], sigma)))
-                }} else {{
-                    weights[l] * mean(abs(m - targets[k]))
-                }};
+            let p = pyramid(r.mask(names[k]), levels);
+            for l in 0..levels {{
+                masks = masks + weights[l] * mean(abs(p[l] - target_pyramids[k][l]));
             }}
         }}
-        #{{ masks: masks, depth: 2.0 * masked_mean(abs(r.depth - depth), union) / scale }}
+        #{{ masks: masks, depth: 10.0 * masked_mean(abs(r.depth - depth), union) / scale }}
     }},
 }});
 let out = #{{}};

@@ -1,60 +1,18 @@
-//! The object stage's joint refinement alone (the loss of scripts/room.rhai's object stage: L1 of
-//! Gaussian-blurred instance masks at several scales plus depth L1 inside the instances): three objects of a
+//! The object stage's joint refinement alone (the loss of scripts/room.rhai's object stage: L1 between Gaussian
+//! pyramids of the instance masks plus depth L1 inside the instances): three objects of a
 //! rendered room start 20 cm / 20 degrees / 20 % scale off their true poses and are refined together through
 //! the mask and depth boundary gradients. Stated: within 2 cm / 2 degrees / 2 % after 80 iterations at 128x96
-//! (measured: 2 mm / 0.11 degrees / 0.1 %, 6 s on 2 cores in the test profile).
+//! (measured: 1 mm / 0.1 degrees / 0.1 %, 1.7 s on 2 cores in the test profile).
 
 use glam::{Quat, Vec3};
 use psdr::backend::CpuBackend;
 use psdr::render::{render_cpu, SceneData};
 use psdr::scene::{load_obj, save_scene, Material, Object, Pose};
 use psdr::script::{run_script, RunOptions, ScriptRun};
+use psdr_tests::furniture::refine_script;
 use psdr_tests::rooms::{room_scene, RoomSpec};
 use psdr_tests::temp_dir;
 use std::path::Path;
-
-const SCRIPT: &str = r#"
-let s = load_scene(PHOTO_DIR + "/start.json");
-let names = ["table", "chair", "cabinet"];
-let targets = [];
-let params = [];
-for n in names {
-    targets.push(load_image(PHOTO_DIR + "/" + n + ".mask.exr"));
-    params.push(#{ select: "object/" + n + "/translation", free: "xz" });
-    params.push("object/" + n + "/yaw");
-    params.push(#{ select: "object/" + n + "/scale", space: "uniform_log" });
-}
-let depth = load_image(PHOTO_DIR + "/depth.exr");
-let union = targets[0] + targets[1] + targets[2];
-let scale = masked_mean(depth, union);
-let width = depth.width;
-let sigmas = [0.0, 0.02, 0.04, 0.08];
-let weights = [1.0, 2.0, 4.0, 8.0];
-optimize(s, #{
-    params: params, iters: ITERS, spp: 4, seed: 1, lr: #{ "object/*/translation": 0.02, "object/*/yaw": LR_YAW, "object/*/scale": 0.03 },
-    schedule: #{ kind: "exponential", gamma: 0.96 }, label: "poses",
-    loss: |r| {
-        let masks = 0.0;
-        for k in 0..names.len() {
-            let m = r.mask(names[k]);
-            for l in 0..sigmas.len() {
-                let sigma = sigmas[l] * width;
-                masks = masks + if sigma > 0.0 {
-                    weights[l] * mean(abs(blur(m, sigma) - blur(targets[k], sigma)))
-                } else {
-                    weights[l] * mean(abs(m - targets[k]))
-                };
-            }
-        }
-        #{ masks: masks, depth: W_DEPTH * masked_mean(abs(r.depth - depth), union) / scale }
-    },
-});
-let out = #{};
-for n in names {
-    out[n] = #{ t: s.get("object/" + n + "/translation"), yaw: s.get("object/" + n + "/yaw"), scale: s.get("object/" + n + "/scale") };
-}
-record("poses", out);
-"#;
 
 #[test]
 fn perturbed_poses_are_refined_jointly() {
@@ -109,15 +67,8 @@ fn perturbed_poses_are_refined_jointly() {
     psdr::output::write_png_srgb(&dir.join("photo.png"), iw, ih, &f.radiance).unwrap();
     save_scene(&build(true), &dir.join("start.json")).unwrap();
     let script = dir.join("refine.rhai");
-    let env = |k: &str, d: &str| std::env::var(k).unwrap_or(d.into());
-    std::fs::write(
-        &script,
-        SCRIPT
-            .replace("ITERS", &env("ITERS", "80"))
-            .replace("W_DEPTH", &env("W_DEPTH", "2.0"))
-            .replace("LR_YAW", &env("LR_YAW", "0.05")),
-    )
-    .unwrap();
+    let names: Vec<String> = truth.iter().map(|t| t.0.to_string()).collect();
+    std::fs::write(&script, refine_script(&names, 80)).unwrap();
     let t = std::time::Instant::now();
     run_script(
         ScriptRun {
