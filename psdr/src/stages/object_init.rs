@@ -32,6 +32,8 @@ pub struct ObjectInitOptions {
     pub max_candidates: usize,
     /// Weight of |ln scale| (how far a model must be scaled to the observed height) in the score.
     pub scale_weight: f32,
+    /// Leaders of the sweep compared again at twice its resolution.
+    pub finalists: usize,
 }
 
 impl Default for ObjectInitOptions {
@@ -42,9 +44,10 @@ impl Default for ObjectInitOptions {
             yaws: 16,
             sweep_width: 128,
             top_k: 5,
-            depth_weight: 0.5,
+            depth_weight: 1.0,
             max_candidates: 8,
             scale_weight: 1.0,
+            finalists: 3,
         }
     }
 }
@@ -196,20 +199,30 @@ impl PoseRenderer {
     }
 }
 
-/// True when, under most columns of the instance's mask, the pixels just below its lowest pixel belong to
-/// another furniture instance.
-fn rests_on_furniture(inst: &Instances, id: u16) -> bool {
-    let (w, h) = (inst.width, inst.height);
-    let (mut columns, mut on_furniture) = (0, 0);
-    for x in 0..w {
-        let Some(y) = (0..h).rev().find(|&y| inst.ids[y * w + x] == id) else { continue };
-        columns += 1;
-        let below = (y + 2).min(h - 1);
-        let other = inst.ids[below * w + x];
-        let kind = inst.instances.iter().find(|i| i.id == other && other != id).map(|i| i.kind);
-        on_furniture += usize::from(kind == Some(ClassKind::Furniture));
-    }
-    columns > 0 && on_furniture * 2 > columns
+/// Where an instance's points are: the floor-plane box of their 10-90 % range and the heights of their 2 % and
+/// 95 % points.
+#[derive(Clone, Copy)]
+struct Extent {
+    lo: Vec3,
+    hi: Vec3,
+    bottom: f32,
+    top: f32,
+}
+
+/// The top of the highest other instance whose floor-plane box holds this one's centre and whose points end
+/// below this one's bottom (a lamp on a table: the lamp's thin base may be hidden, so its lowest visible points
+/// can be well above the table): what it stands on, if anything.
+fn resting_on(e: &Extent, centre: Vec3, others: &[Extent], floor_y: f32) -> Option<f32> {
+    others
+        .iter()
+        .filter(|o| {
+            o.top > floor_y + 0.15
+                && o.top < e.bottom + 0.15
+                && (o.lo.x..=o.hi.x).contains(&centre.x)
+                && (o.lo.z..=o.hi.z).contains(&centre.z)
+        })
+        .map(|o| o.top)
+        .reduce(f32::max)
 }
 
 /// The median-depth point of the pixels where `inside` holds, in world coordinates, if there are any.
@@ -267,6 +280,30 @@ pub fn init_objects(
     let sh = ((sw as usize * h) / w).max(6) as u32;
     let mut placed = vec![];
     let mut skipped = vec![];
+    // Every furniture instance's points first: support is decided between instances.
+    let points_of = |id: u16| -> Vec<Vec3> {
+        let mask: Vec<bool> = inst.ids.iter().map(|&v| v == id).collect();
+        surface_points(depth, &erode(&mask, w, h, opts.erode), &k).into_iter().map(|s| to_world(s.p)).collect()
+    };
+    let extent = |pts: &[Vec3]| -> Extent {
+        let (mut xs, mut ys, mut zs): (Vec<f32>, Vec<f32>, Vec<f32>) =
+            (pts.iter().map(|p| p.x).collect(), pts.iter().map(|p| p.y).collect(), pts.iter().map(|p| p.z).collect());
+        Extent {
+            lo: Vec3::new(percentile(&mut xs, 0.1), 0.0, percentile(&mut zs, 0.1)),
+            hi: Vec3::new(percentile(&mut xs, 0.9), 0.0, percentile(&mut zs, 0.9)),
+            bottom: percentile(&mut ys, 0.02),
+            top: percentile(&mut ys, 0.99),
+        }
+    };
+    let furniture: Vec<(u16, Extent)> = inst
+        .instances
+        .iter()
+        .filter(|i| i.kind == ClassKind::Furniture)
+        .filter_map(|i| {
+            let pts = points_of(i.id);
+            (pts.len() >= 10).then(|| (i.id, extent(&pts)))
+        })
+        .collect();
     for i in inst.instances.iter().filter(|i| i.kind != ClassKind::Structure) {
         let skip = |reason: String| SkippedInstance { instance: i.id, class: i.class.clone(), reason };
         if i.kind == ClassKind::Opening {
@@ -277,23 +314,29 @@ pub fn init_objects(
             skipped.push(skip(format!("{} pixels, under the {} pixel minimum", i.pixels, opts.min_pixels)));
             continue;
         }
-        let mask: Vec<bool> = inst.ids.iter().map(|&v| v == i.id).collect();
-        let pts: Vec<Vec3> =
-            surface_points(depth, &erode(&mask, w, h, opts.erode), &k).into_iter().map(|s| to_world(s.p)).collect();
+        let pts = points_of(i.id);
         if pts.len() < 10 {
             skipped.push(skip(format!("only {} pixels with depth inside the mask", pts.len())));
             continue;
         }
         let (mut xs, mut zs, mut ys): (Vec<f32>, Vec<f32>, Vec<f32>) =
             (pts.iter().map(|p| p.x).collect(), pts.iter().map(|p| p.z).collect(), pts.iter().map(|p| p.y).collect());
-        // Support: the floor, unless the lowest points seen are well above it and something else holds it:
-        // another piece of furniture right under its mask (a lamp on a table), or it is a lamp (hanging). A
-        // table whose legs hide behind a sofa still stands on the floor.
-        let bottom = percentile(&mut ys, 0.02);
-        let raised = bottom > floor_y + 0.15 && (i.class == "lamp" || rests_on_furniture(inst, i.id));
-        let base = if raised { bottom } else { floor_y };
+        // Support: the floor, unless the lowest points seen are well above it and another instance's points end
+        // right under them (a lamp on a table), or it is a lamp high up (hanging). A table whose legs are hidden
+        // still stands on the floor.
+        let e = extent(&pts);
+        let bottom = e.bottom;
+        let middle = Vec3::new(percentile(&mut xs, 0.5), 0.0, percentile(&mut zs, 0.5));
+        let others: Vec<Extent> = furniture.iter().filter(|(id, _)| *id != i.id).map(|(_, x)| *x).collect();
+        let hanging = i.class == "lamp" && bottom > floor_y + 1.2;
+        let support = if bottom > floor_y + 0.15 { resting_on(&e, middle, &others, floor_y) } else { None };
+        let base = match (support, hanging) {
+            (Some(top), _) => top,
+            (None, true) => bottom,
+            (None, false) => floor_y,
+        };
         let centre = Vec3::new(percentile(&mut xs, 0.5), base, percentile(&mut zs, 0.5));
-        let top = (percentile(&mut ys, 0.95) - base).max(0.1);
+        let top = (percentile(&mut ys, 0.99) - base).max(0.1);
         let footprint = Vec3::new(
             (percentile(&mut xs, 0.9) - percentile(&mut xs, 0.1)).max(0.2),
             top,
@@ -368,33 +411,53 @@ pub fn init_objects(
         order.sort_by(|&a, &b| options[b].0.score.total_cmp(&options[a].0.score));
         let options: Vec<(Candidate, Vec<MeshPart>, f32, Vec3)> =
             order.into_iter().map(|i| (options[i].0.clone(), options[i].1.clone(), options[i].2, centres[i])).collect();
-        let Some((mut chosen, parts, scale, mut centre)) = options.first().cloned() else {
+        if options.is_empty() {
             skipped.push(skip("no candidate model could be rendered".into()));
             continue;
-        };
-        // The winner's yaw refined between the sweep's steps by halving.
-        let Some(mut renderer) = PoseRenderer::new(cam, &parts, sw, sh) else { continue };
-        let (size, prior) = (footprint_size(&parts) * scale, opts.scale_weight * scale.ln().abs());
-        let mut step = 180.0 / opts.yaws.max(1) as f32;
-        for _ in 0..4 {
-            for yaw in [chosen.yaw_deg - step, chosen.yaw_deg + step] {
+        }
+        // The leaders compared again at twice the sweep's resolution, each with its yaw refined between the
+        // sweep's steps by halving: small objects get the pixels to tell close variants apart.
+        let (fw, fh) = ((2 * sw).min(w as u32), ((2 * sw).min(w as u32) as usize * h / w).max(6) as u32);
+        let fine_target = sweep_target(inst, depth, i.id, fw as usize, fh as usize);
+        let mut finals: Vec<(Candidate, Vec<MeshPart>, f32, Vec3)> = vec![];
+        for (c, parts, scale, centre) in options.iter().take(opts.finalists.max(1)).cloned() {
+            let Some(mut renderer) = PoseRenderer::new(cam, &parts, fw, fh) else { continue };
+            let (size, prior) = (footprint_size(&parts) * scale, opts.scale_weight * scale.ln().abs());
+            let fine = |renderer: &mut PoseRenderer, yaw: f32, centre: Vec3| {
                 let start = Pose {
                     translation: centre,
                     rotation: Quat::from_rotation_y(yaw.to_radians()),
                     scale: Vec3::splat(scale),
                 };
-                let pose = align(cam, &mut renderer, start, &target, sw, sh);
-                let Some((ids, d)) = renderer.render(pose) else { continue };
-                let (iou, s) = score(&target, &ids, &d, size, opts.depth_weight);
-                if s - prior > chosen.score {
-                    (chosen.yaw_deg, chosen.iou, chosen.score, centre) =
-                        (yaw.rem_euclid(360.0), iou, s - prior, pose.translation);
+                let pose = align(cam, renderer, start, &fine_target, fw, fh);
+                let (ids, d) = renderer.render(pose)?;
+                let (iou, s) = score(&fine_target, &ids, &d, size, opts.depth_weight);
+                Some((iou, s - prior, pose.translation))
+            };
+            let Some((iou, sc, t)) = fine(&mut renderer, c.yaw_deg, centre) else { continue };
+            let (mut best, mut centre) = (Candidate { iou, score: sc, ..c }, t);
+            let mut step = 180.0 / opts.yaws.max(1) as f32;
+            for _ in 0..4 {
+                for yaw in [best.yaw_deg - step, best.yaw_deg + step] {
+                    if let Some((iou, sc, t)) = fine(&mut renderer, yaw, centre) {
+                        if sc > best.score {
+                            (best.yaw_deg, best.iou, best.score, centre) = (yaw.rem_euclid(360.0), iou, sc, t);
+                        }
+                    }
                 }
+                step /= 2.0;
             }
-            step /= 2.0;
+            finals.push((best, parts, scale, centre));
         }
+        finals.sort_by(|a, b| b.0.score.total_cmp(&a.0.score));
+        let Some((chosen, parts, scale, centre)) = finals.first().cloned() else {
+            skipped.push(skip("no candidate model could be rendered".into()));
+            continue;
+        };
+        let rest = options.iter().skip(finals.len()).map(|o| o.0.clone());
+        let alternatives: Vec<Candidate> =
+            finals.iter().skip(1).map(|f| f.0.clone()).chain(rest).take(opts.top_k.saturating_sub(1)).collect();
         let name = format!("{}_{}", i.class, i.id);
-        let alternatives = options.iter().skip(1).take(opts.top_k.saturating_sub(1)).map(|o| o.0.clone()).collect();
         let pose = Pose {
             translation: centre,
             rotation: Quat::from_rotation_y(chosen.yaw_deg.to_radians()),
