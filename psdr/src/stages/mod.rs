@@ -2,6 +2,7 @@
 //! (`room_init`), its geometry (`point_cloud`, `plane_fit`) and the room as a scene (`room_scene`).
 
 mod depth_calibration;
+mod light_fit;
 mod object_init;
 mod plane_fit;
 mod point_cloud;
@@ -9,6 +10,7 @@ mod room_init;
 mod room_scene;
 
 pub use depth_calibration::{calibrate_relative_depth, DepthCalibration};
+pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use object_init::{init_objects, Candidate, ObjectInitOptions, ObjectPlacement, SkippedInstance};
 pub use plane_fit::{fit_plane, fit_plane_in_depth, ransac_plane, symmetric_eigen, Plane};
 pub use point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};

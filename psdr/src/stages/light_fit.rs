@@ -1,0 +1,230 @@
+//! Light radiances from a photo (PSDR-Room, "Material and lighting stage", initialisation). Rendering is linear in
+//! the emitters' radiances, so one render per candidate light with unit radiance gives a basis; the radiances
+//! are the non-negative least-squares fit of the basis to the photo, box-downsampled (per colour channel; this
+//! generalises the paper's search over one global scale). "Model no more than a scene needs": lights are then
+//! removed one at a time (greedy backward elimination) while removing the least useful one raises the fit's
+//! error by less than a stated fraction.
+
+use crate::error::{Error, Result};
+use crate::render::{render_cpu, SceneData};
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// Knobs of the fit.
+#[derive(Clone, Debug)]
+pub struct LightFitOptions {
+    /// The photo and the basis renders are compared at 1/downsample of the photo's size (box filter).
+    pub downsample: usize,
+    /// Samples per pixel of each basis render.
+    pub spp: u32,
+    /// Path length of the basis renders (global illumination).
+    pub max_depth: u32,
+    /// A light is removed when that raises the fit's relative RMS error by less than this (0 keeps all).
+    pub removal_threshold: f32,
+    pub seed: u32,
+}
+
+impl Default for LightFitOptions {
+    fn default() -> Self {
+        LightFitOptions { downsample: 8, spp: 64, max_depth: 3, removal_threshold: 0.01, seed: 0 }
+    }
+}
+
+/// The fit: per light its radiance (0 if removed), which lights were kept, and the error.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct LightFit {
+    pub names: Vec<String>,
+    pub radiance: Vec<[f32; 3]>,
+    pub kept: Vec<bool>,
+    /// RMS of (fit - photo) over the downsampled photo, relative to the photo's RMS.
+    pub relative_rms: f32,
+    /// The same with every candidate light in the fit.
+    pub relative_rms_all: f32,
+    /// Mean luminance of the fit over the photo's, downsampled.
+    pub luminance_ratio: f32,
+}
+
+/// Box-downsamples an interleaved RGB image by k (partial blocks at the right and bottom edges dropped).
+fn downsample(data: &[f32], w: usize, h: usize, k: usize) -> (Vec<f32>, usize, usize) {
+    let (dw, dh) = ((w / k).max(1), (h / k).max(1));
+    let k = k.min(w).min(h).max(1);
+    let mut out = vec![0.0; dw * dh * 3];
+    for y in 0..dh * k {
+        for x in 0..dw * k {
+            for c in 0..3 {
+                out[((y / k) * dw + x / k) * 3 + c] += data[(y * w + x) * 3 + c] / (k * k) as f32;
+            }
+        }
+    }
+    (out, dw, dh)
+}
+
+/// Non-negative least squares min |A x - b|, x >= 0, for a few columns (Lawson-Hanson active set). `a` is
+/// column-major: a[j] is column j.
+pub fn nnls(a: &[Vec<f64>], b: &[f64]) -> Vec<f64> {
+    let n = a.len();
+    let dot = |u: &[f64], v: &[f64]| u.iter().zip(v).map(|(x, y)| x * y).sum::<f64>();
+    let ata: Vec<Vec<f64>> = (0..n).map(|i| (0..n).map(|j| dot(&a[i], &a[j])).collect()).collect();
+    let atb: Vec<f64> = (0..n).map(|i| dot(&a[i], b)).collect();
+    // Unconstrained least squares on the passive set (normal equations, Gaussian elimination).
+    let solve = |set: &[usize]| -> Vec<f64> {
+        let m = set.len();
+        let mut mat: Vec<Vec<f64>> = set.iter().map(|&i| set.iter().map(|&j| ata[i][j]).collect()).collect();
+        let mut rhs: Vec<f64> = set.iter().map(|&i| atb[i]).collect();
+        for c in 0..m {
+            let p = (c..m).max_by(|&x, &y| mat[x][c].abs().total_cmp(&mat[y][c].abs())).unwrap_or(c);
+            mat.swap(c, p);
+            rhs.swap(c, p);
+            let d = mat[c][c];
+            if d.abs() < 1e-300 {
+                continue;
+            }
+            for r in c + 1..m {
+                let f = mat[r][c] / d;
+                let row = mat[c].clone();
+                for (v, pv) in mat[r].iter_mut().zip(row).skip(c) {
+                    *v -= f * pv;
+                }
+                rhs[r] -= f * rhs[c];
+            }
+        }
+        let mut z = vec![0.0; m];
+        for c in (0..m).rev() {
+            let s: f64 = (c + 1..m).map(|j| mat[c][j] * z[j]).sum();
+            z[c] = if mat[c][c].abs() < 1e-300 { 0.0 } else { (rhs[c] - s) / mat[c][c] };
+        }
+        z
+    };
+    let mut x = vec![0.0; n];
+    let mut passive: Vec<usize> = vec![];
+    for _ in 0..3 * n + 10 {
+        // Gradient of -1/2 |Ax - b|^2: w = A^T (b - A x).
+        let w: Vec<f64> = (0..n).map(|i| atb[i] - (0..n).map(|j| ata[i][j] * x[j]).sum::<f64>()).collect();
+        let Some(t) = (0..n).filter(|i| !passive.contains(i)).max_by(|&p, &q| w[p].total_cmp(&w[q])) else { break };
+        if w[t] <= 1e-12 * atb.iter().map(|v| v.abs()).fold(1e-30, f64::max) {
+            break;
+        }
+        passive.push(t);
+        loop {
+            let z = solve(&passive);
+            if z.iter().all(|&v| v > 0.0) {
+                for (k, &i) in passive.iter().enumerate() {
+                    x[i] = z[k];
+                }
+                break;
+            }
+            // Step toward z until a variable hits zero; drop it from the passive set.
+            let alpha = passive
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| z[*k] <= 0.0)
+                .map(|(k, &i)| x[i] / (x[i] - z[k]).max(1e-300))
+                .fold(1.0f64, f64::min);
+            for (k, &i) in passive.iter().enumerate() {
+                x[i] += alpha * (z[k] - x[i]);
+            }
+            passive.retain(|&i| x[i] > 1e-12);
+            for i in 0..n {
+                if !passive.contains(&i) {
+                    x[i] = 0.0;
+                }
+            }
+            if passive.is_empty() {
+                break;
+            }
+        }
+    }
+    x
+}
+
+/// Fits the radiances of the emitters named `lights` (objects of `scene` with an emitter) to `photo` (linear RGB,
+/// the camera's size), then removes the lights the photo does not need.
+pub fn fit_lights(scene: &Scene, lights: &[String], photo: &[f32], opts: &LightFitOptions) -> Result<LightFit> {
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    if photo.len() != w * h * 3 {
+        return Err(Error::Invalid(format!(
+            "light fit: the photo has {} values, the camera renders {w}x{h} RGB",
+            photo.len()
+        )));
+    }
+    if lights.is_empty() {
+        return Err(Error::Invalid("light fit: no candidate lights".into()));
+    }
+    let index: Vec<usize> = lights
+        .iter()
+        .map(|n| {
+            scene
+                .objects
+                .iter()
+                .position(|o| &o.name == n && o.emitter.is_some())
+                .ok_or_else(|| Error::Invalid(format!("light fit: '{n}' is not an emitter of the scene")))
+        })
+        .collect::<Result<_>>()?;
+    let (target, _, _) = downsample(photo, w, h, opts.downsample);
+    // One render per light with unit radiance, every other emitter dark.
+    let mut basis: Vec<Vec<f32>> = vec![];
+    for &li in &index {
+        let mut s = scene.clone();
+        for (oi, o) in s.objects.iter_mut().enumerate() {
+            if let Some(e) = o.emitter.as_mut() {
+                e.radiance = if oi == li { Vec3::ONE } else { Vec3::ZERO };
+            }
+        }
+        s.settings.spp = opts.spp;
+        s.settings.max_depth = opts.max_depth;
+        s.settings.seed = opts.seed;
+        let f = render_cpu(&SceneData::build(&s)?, &s.settings, &|_, _| {});
+        basis.push(downsample(&f.radiance, w, h, opts.downsample).0);
+    }
+    let px = target.len() / 3;
+    let fit = |active: &[usize]| -> (Vec<[f32; 3]>, f64) {
+        let mut rad = vec![[0.0f32; 3]; index.len()];
+        let mut err = 0.0f64;
+        for c in 0..3 {
+            let cols: Vec<Vec<f64>> =
+                active.iter().map(|&i| (0..px).map(|p| basis[i][p * 3 + c] as f64).collect()).collect();
+            let b: Vec<f64> = (0..px).map(|p| target[p * 3 + c] as f64).collect();
+            let x = nnls(&cols, &b);
+            for (k, &i) in active.iter().enumerate() {
+                rad[i][c] = x[k] as f32;
+            }
+            for p in 0..px {
+                let model: f64 = active.iter().enumerate().map(|(k, _)| cols[k][p] * x[k]).sum();
+                err += (model - b[p]).powi(2);
+            }
+        }
+        (rad, err)
+    };
+    let norm = target.iter().map(|v| (*v as f64).powi(2)).sum::<f64>().max(1e-30);
+    let rel = |err: f64| (err / norm).sqrt() as f32;
+    let mut active: Vec<usize> = (0..index.len()).collect();
+    let (mut rad, mut err) = fit(&active);
+    let all = rel(err);
+    // Backward elimination: drop the light whose removal costs least, while that cost stays under the threshold.
+    while active.len() > 1 {
+        let trial = active
+            .iter()
+            .map(|&drop| {
+                let rest: Vec<usize> = active.iter().copied().filter(|&i| i != drop).collect();
+                let (r, e) = fit(&rest);
+                (drop, r, e)
+            })
+            .min_by(|a, b| a.2.total_cmp(&b.2));
+        let Some((drop, r, e)) = trial else { break };
+        if rel(e) - rel(err) >= opts.removal_threshold {
+            break;
+        }
+        active.retain(|&i| i != drop);
+        (rad, err) = (r, e);
+    }
+    let lum = |v: &[f32]| v.chunks(3).map(|c| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]).sum::<f32>();
+    let fitted: Vec<f32> = (0..px * 3).map(|k| active.iter().map(|&i| basis[i][k] * rad[i][k % 3]).sum()).collect();
+    Ok(LightFit {
+        names: lights.to_vec(),
+        kept: (0..index.len()).map(|i| active.contains(&i)).collect(),
+        radiance: rad,
+        relative_rms: rel(err),
+        relative_rms_all: all,
+        luminance_ratio: lum(&fitted) / lum(&target).max(1e-30),
+    })
+}

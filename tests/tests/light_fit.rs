@@ -1,0 +1,73 @@
+//! The light fit (unit render per candidate light, non-negative least squares on the downsampled photo,
+//! backward elimination) on a room rendered by psdr with two true ceiling lights among six candidates, and the
+//! NNLS solver against a closed-form case.
+
+use glam::Vec3;
+use psdr::render::{render_cpu, SceneData};
+use psdr::scene::Emitter;
+use psdr::stages::{fit_lights, nnls, LightFitOptions};
+use psdr_tests::rooms::{furniture, room_scene, RoomSpec};
+use psdr_tests::SplitMix64;
+
+#[test]
+fn nnls_matches_the_constrained_optimum() {
+    // b = 2 a0 + 0 a1 - 1 a2 (a negative weight): the constrained optimum sets x2 = 0 and refits the rest.
+    let a = vec![vec![1.0, 0.0, 0.0, 1.0], vec![0.0, 1.0, 0.0, 1.0], vec![0.0, 0.0, 1.0, 1.0]];
+    let b = vec![2.0, 0.0, -1.0, 1.0];
+    let x = nnls(&a, &b);
+    assert!(x.iter().all(|&v| v >= 0.0), "{x:?}");
+    // With x2 = 0: minimise (x0-2)^2 + x1^2 + 1 + (x0+x1-1)^2 -> x0 = 5/3, x1 = -1/3 < 0 -> x1 = 0, x0 = 1.5.
+    assert!((x[0] - 1.5).abs() < 1e-9 && x[1].abs() < 1e-12 && x[2].abs() < 1e-12, "{x:?}");
+    // An unconstrained interior solution is returned as is.
+    let x = nnls(&a, &[1.0, 2.0, 3.0, 6.0]);
+    assert!((x[0] - 1.0).abs() < 1e-9 && (x[1] - 2.0).abs() < 1e-9 && (x[2] - 3.0).abs() < 1e-9, "{x:?}");
+}
+
+#[test]
+fn two_true_lights_among_six_candidates() {
+    let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.3, 1.5, 2.6), yaw: 5.0, pitch: -12.0, fov: 60.0 };
+    let boxes = furniture(&r, 0.25, &mut SplitMix64(3));
+    let (base, _) = room_scene(&r, &boxes, false, 128, 96);
+    let light = base.objects.iter().find(|o| o.emitter.is_some()).unwrap().clone();
+    // Six candidates: a 3 x 2 grid over the ceiling, facing down.
+    let mut candidates = base.clone();
+    candidates.objects.retain(|o| o.emitter.is_none());
+    let mut names = vec![];
+    for (i, x) in [-1.5f32, 0.0, 1.5].iter().enumerate() {
+        for (j, z) in [-1.5f32, 0.5].iter().enumerate() {
+            let mut l = light.clone();
+            l.name = format!("light_{i}{j}");
+            l.pose.translation = Vec3::new(*x, r.h - 0.01, *z);
+            l.emitter = Some(Emitter { radiance: Vec3::ONE, two_sided: false });
+            names.push(l.name.clone());
+            candidates.objects.push(l);
+        }
+    }
+    // The truth: two of them lit, with different colours.
+    let truth_rad = [("light_00", Vec3::new(9.0, 8.0, 6.5)), ("light_21", Vec3::new(4.0, 4.5, 6.0))];
+    let mut truth = candidates.clone();
+    truth.objects.retain(|o| o.emitter.is_none() || truth_rad.iter().any(|(n, _)| *n == o.name));
+    for o in truth.objects.iter_mut() {
+        if let Some((_, rad)) = truth_rad.iter().find(|(n, _)| *n == o.name) {
+            o.emitter = Some(Emitter { radiance: *rad, two_sided: false });
+        }
+    }
+    truth.settings.spp = 256;
+    truth.settings.max_depth = 3;
+    truth.settings.seed = 7;
+    let photo = render_cpu(&SceneData::build(&truth).unwrap(), &truth.settings, &|_, _| {}).radiance;
+    let t = std::time::Instant::now();
+    let fit = fit_lights(&candidates, &names, &photo, &LightFitOptions::default()).unwrap();
+    eprintln!("{fit:?} in {:.1} s", t.elapsed().as_secs_f32());
+    let kept: Vec<&String> = fit.names.iter().zip(&fit.kept).filter(|(_, k)| **k).map(|(n, _)| n).collect();
+    assert_eq!(kept, vec!["light_00", "light_21"], "backward elimination keeps the two true lights");
+    for (n, rad) in truth_rad {
+        let i = fit.names.iter().position(|x| x == n).unwrap();
+        for c in 0..3 {
+            // Independent render noise (64 spp basis against a 256 spp photo): within 5 % per channel.
+            assert!((fit.radiance[i][c] / rad[c] - 1.0).abs() < 0.05, "{n}: {:?} vs {rad}", fit.radiance[i]);
+        }
+    }
+    assert!((fit.luminance_ratio - 1.0).abs() < 0.03, "luminance ratio {}", fit.luminance_ratio);
+    assert!(fit.relative_rms < 0.1 && fit.relative_rms_all <= fit.relative_rms + 1e-6);
+}
