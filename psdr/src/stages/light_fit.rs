@@ -124,9 +124,9 @@ pub fn nnls(a: &[Vec<f64>], b: &[f64]) -> Vec<f64> {
                 x[i] += alpha * (z[k] - x[i]);
             }
             passive.retain(|&i| x[i] > 1e-12);
-            for i in 0..n {
+            for (i, v) in x.iter_mut().enumerate() {
                 if !passive.contains(&i) {
-                    x[i] = 0.0;
+                    *v = 0.0;
                 }
             }
             if passive.is_empty() {
