@@ -71,3 +71,66 @@ fn two_true_lights_among_six_candidates() {
     assert!((fit.luminance_ratio - 1.0).abs() < 0.03, "luminance ratio {}", fit.luminance_ratio);
     assert!(fit.relative_rms < 0.1 && fit.relative_rms_all <= fit.relative_rms + 1e-6);
 }
+
+/// Candidate lights on a room: none of the ceiling grid where the camera sees it or behind the camera, one
+/// behind the camera, a window on each wall the photo does not show and none on the walls it shows; then the
+/// fit on a photo lit by a light that is not among the candidates still reproduces its luminance.
+#[test]
+fn candidates_avoid_the_view_and_fit_a_light_they_do_not_contain() {
+    let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.3, 1.5, 2.6), yaw: 5.0, pitch: -12.0, fov: 60.0 };
+    let (truth, _) = room_scene(&r, &[], false, 128, 96);
+    let mut room = psdr::stages::room_scene(
+        &psdr::stages::RoomEstimate {
+            width: r.w,
+            depth: r.d,
+            height: r.h,
+            x_min: -r.w / 2.0,
+            z_min: -r.d / 2.0,
+            camera_to_world: glam::Mat4::from_cols(
+                truth.camera.right().extend(0.0),
+                truth.camera.up.extend(0.0),
+                (-truth.camera.forward).extend(0.0),
+                truth.camera.origin.extend(1.0),
+            )
+            .transpose()
+            .to_cols_array_2d(),
+            camera_height: r.cam.y,
+            pitch_deg: r.pitch,
+            roll_deg: 0.0,
+            walls_seen: [true; 4],
+            ceiling_seen: true,
+            floor_inliers: 0,
+        },
+        r.fov,
+        128,
+        96,
+    );
+    let names = psdr::stages::init_lights(&mut room, &psdr::stages::LightInitOptions::default());
+    eprintln!("{names:?}");
+    let cam = &room.camera;
+    let tan_y = (cam.fov_y_deg.to_radians() / 2.0).tan();
+    for n in names.iter().filter(|n| n.starts_with("light_ceiling")) {
+        let p = room.objects.iter().find(|o| &o.name == n).unwrap().pose.translation - cam.origin;
+        let z = p.dot(cam.forward);
+        let inside =
+            z > 0.0 && p.dot(cam.right()).abs() <= z * tan_y * 128.0 / 96.0 && p.dot(cam.up).abs() <= z * tan_y;
+        assert!(!inside && z >= 0.0, "{n} is in view or behind the camera");
+    }
+    assert!(names.contains(&"light_behind_camera".to_string()));
+    // The camera looks at wall_z0 (the back wall) and sees both side walls; the wall behind it is unseen.
+    assert!(
+        names.contains(&"light_window_wall_z1".to_string()) && !names.contains(&"light_window_wall_z0".to_string()),
+        "{names:?}"
+    );
+    assert!(room.objects.iter().filter(|o| o.emitter.is_some()).count() == names.len());
+    // The truth's light (0.6 m square at the ceiling's centre, in view) is not a candidate; the fit still
+    // matches the photo's downsampled luminance.
+    let mut t = truth.clone();
+    t.settings.spp = 128;
+    t.settings.max_depth = 3;
+    let photo = render_cpu(&SceneData::build(&t).unwrap(), &t.settings, &|_, _| {}).radiance;
+    let fit = fit_lights(&room, &names, &photo, &LightFitOptions { spp: 32, ..Default::default() }).unwrap();
+    eprintln!("kept {:?}, relative RMS {:.3}, luminance ratio {:.4}", fit.kept, fit.relative_rms, fit.luminance_ratio);
+    assert!((fit.luminance_ratio - 1.0).abs() < 0.05, "{}", fit.luminance_ratio);
+    assert!(fit.kept.iter().filter(|k| **k).count() < names.len(), "nothing removed");
+}

@@ -120,6 +120,7 @@ pub fn build_engine(run: &RunRef) -> Engine {
     super::optimize_api::register(&mut engine, run);
     super::vision_api::register(&mut engine, run);
     super::object_api::register(&mut engine, run);
+    super::light_api::register(&mut engine, run);
 
     let r = run.clone();
     engine.register_fn("stage", move |ctx: NativeCallContext, name: &str, scene: Dynamic, f: FnPtr| {

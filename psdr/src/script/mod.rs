@@ -8,6 +8,7 @@
 
 mod crops;
 mod engine;
+mod light_api;
 mod object_api;
 mod optimize_api;
 mod run_context;

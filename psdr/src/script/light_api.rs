@@ -1,0 +1,105 @@
+//! The light stage's initialisation in scripts: `lights_init(s)` replaces a room scene's emitters with the
+//! candidate lights, `fit_lights(s, photo)` fits their radiances to the photo and removes the ones it does not
+//! need (in place); the fit goes into result.json as `light_fit`.
+
+use super::engine::{rhai_err, Rr, RunRef};
+use super::scene_api::SceneHandle;
+use crate::error::Error;
+use crate::loss::Tensor;
+use crate::stages::{fit_lights, init_lights, LightFitOptions, LightInitOptions};
+use glam::Vec3;
+use rhai::{Array, Dynamic, Engine, Map};
+
+fn number(k: &str, v: &Dynamic, what: &str) -> crate::Result<f64> {
+    v.as_float()
+        .or_else(|_| v.as_int().map(|i| i as f64))
+        .map_err(|_| Error::Invalid(format!("{what}: '{k}' must be a number")))
+}
+
+fn lights_init(scene: &mut SceneHandle, opts: &Map) -> crate::Result<Array> {
+    let mut o = LightInitOptions::default();
+    for (k, v) in opts {
+        let n = number(k, v, "lights_init")? as f32;
+        match k.as_str() {
+            "cell" => o.cell = n.max(0.1),
+            "scale" => o.scale = n.clamp(0.01, 1.0),
+            "unseen_wall_fraction" => o.unseen_wall_fraction = n,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "lights_init: unknown option '{other}' (cell, scale, unseen_wall_fraction)"
+                )))
+            }
+        }
+    }
+    let names = init_lights(&mut scene.0, &o);
+    if names.is_empty() {
+        return Err(Error::Invalid(
+            "lights_init: the scene has no room (floor, ceiling, wall_x0 ... wall_z1) to light".into(),
+        ));
+    }
+    Ok(names.into_iter().map(Dynamic::from).collect())
+}
+
+fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> crate::Result<Map> {
+    let mut o = LightFitOptions::default();
+    for (k, v) in opts {
+        let n = number(k, v, "fit_lights")?;
+        match k.as_str() {
+            "downsample" => o.downsample = n.max(1.0) as usize,
+            "spp" => o.spp = n.max(1.0) as u32,
+            "max_depth" => o.max_depth = n.max(1.0) as u32,
+            "removal_threshold" => o.removal_threshold = n as f32,
+            "seed" => o.seed = n.max(0.0) as u32,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "fit_lights: unknown option '{other}' (downsample, spp, max_depth, removal_threshold, seed)"
+                )))
+            }
+        }
+    }
+    let img = photo.value();
+    let (w, h) = (scene.0.camera.width as usize, scene.0.camera.height as usize);
+    if (img.width, img.height, img.channels) != (w, h, 3) {
+        return Err(Error::Invalid(format!(
+            "fit_lights: the photo is {}x{}x{} but the scene's camera renders {w}x{h} RGB",
+            img.width, img.height, img.channels
+        )));
+    }
+    let names: Vec<String> = scene.0.objects.iter().filter(|o| o.emitter.is_some()).map(|o| o.name.clone()).collect();
+    let f = fit_lights(&scene.0, &names, &img.data, &o)?;
+    // Kept lights get their radiance; the others leave the scene.
+    scene
+        .0
+        .objects
+        .retain(|obj| obj.emitter.is_none() || f.names.iter().zip(&f.kept).any(|(n, k)| *k && n == &obj.name));
+    for (i, n) in f.names.iter().enumerate() {
+        if let Some(e) = scene.0.objects.iter_mut().find(|x| &x.name == n).and_then(|x| x.emitter.as_mut()) {
+            e.radiance = Vec3::from(f.radiance[i]).max(Vec3::splat(1e-6));
+        }
+    }
+    let mut out = Map::new();
+    let kept: Array = f.names.iter().zip(&f.kept).filter(|(_, k)| **k).map(|(n, _)| Dynamic::from(n.clone())).collect();
+    out.insert("kept".into(), Dynamic::from(kept));
+    out.insert("relative_rms".into(), Dynamic::from(f.relative_rms as f64));
+    out.insert("luminance_ratio".into(), Dynamic::from(f.luminance_ratio as f64));
+    let v = serde_json::to_value(&f).map_err(|e| Error::Invalid(e.to_string()))?;
+    run.borrow_mut().recorded.insert("light_fit".into(), v);
+    Ok(out)
+}
+
+pub fn register(engine: &mut Engine, run: &RunRef) {
+    engine.register_fn("lights_init", |s: &mut SceneHandle| -> Rr<Array> {
+        lights_init(s, &Map::new()).map_err(rhai_err)
+    });
+    engine.register_fn("lights_init", |s: &mut SceneHandle, opts: Map| -> Rr<Array> {
+        lights_init(s, &opts).map_err(rhai_err)
+    });
+    let r = run.clone();
+    engine.register_fn("fit_lights", move |s: &mut SceneHandle, photo: Tensor| -> Rr<Map> {
+        fit(&r, s, &photo, &Map::new()).map_err(rhai_err)
+    });
+    let r = run.clone();
+    engine.register_fn("fit_lights", move |s: &mut SceneHandle, photo: Tensor, opts: Map| -> Rr<Map> {
+        fit(&r, s, &photo, &opts).map_err(rhai_err)
+    });
+}
