@@ -56,7 +56,7 @@ fn a_library_is_indexed_and_bad_models_are_reported() {
     assert_eq!(catalog.models[1].class, "table", "then the name's last word");
     assert_eq!(catalog.models[2].class, "object", "'wall' is never a model's class");
     let out = dir.join("db");
-    let report = build_db(&[lib, corrupt.clone()], &out).unwrap();
+    let report = build_db(&[lib, corrupt.clone()], &out, true).unwrap();
     assert_eq!(report.indexed.len(), 2, "{:?}", report.skipped);
     let reasons: Vec<String> = report.skipped.iter().map(|s| format!("{} {}: {}", s.0, s.1, s.2)).collect();
     assert_eq!(report.skipped.len(), 2, "{reasons:?}");
@@ -78,6 +78,16 @@ fn a_library_is_indexed_and_bad_models_are_reported() {
     }
     assert!((hi - lo - s).abs().max_element() < 1e-4 && lo.y.abs() < 1e-5 && (lo.x + hi.x).abs() < 1e-4);
     assert_eq!(class_of("Round table", ""), "table");
+    // Thumbnails: one per indexed model, the model darker than the white ground around it.
+    let catalog: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("catalog.json")).unwrap()).unwrap();
+    for m in catalog["models"].as_array().unwrap() {
+        let thumb = out.join(m["thumbnail"].as_str().expect("a thumbnail"));
+        let img = image::open(&thumb).unwrap().to_luma8();
+        let (w, h) = img.dimensions();
+        let (centre, corner) = (img.get_pixel(w / 2, h / 2)[0], img.get_pixel(2, h - 3)[0]);
+        assert!(w == 96 && centre < corner && corner > 100, "{}: centre {centre}, corner {corner}", thumb.display());
+    }
 }
 
 /// Every model of the installed Sweet Home 3D libraries is indexed or reported with a reason.
@@ -96,7 +106,7 @@ fn installed_sweet_home_3d_libraries_are_indexed() {
     }
     let out = temp_dir("sh3d-db");
     let t = std::time::Instant::now();
-    let report = build_db(&[installed.to_path_buf()], &out).unwrap();
+    let report = build_db(&[installed.to_path_buf()], &out, false).unwrap();
     eprintln!(
         "{} libraries' {entries} models: {} indexed, {} skipped in {:.1} s: {:?}",
         SWEET_HOME_3D_FURNITURE,

@@ -24,6 +24,9 @@ enum DbCommand {
         /// The database folder (default ~/.cache/psdr/db, where `psdr run` looks).
         #[arg(short, long)]
         out: Option<PathBuf>,
+        /// Skip the thumbnails (a 96 px render of every model in DIR/thumbs/).
+        #[arg(long)]
+        no_thumbnails: bool,
     },
     /// List a database's models: name, class, size in metres, triangles, licence.
     List {
@@ -44,7 +47,7 @@ enum DbCommand {
 
 pub fn run(args: DbArgs) -> anyhow::Result<()> {
     match args.command {
-        DbCommand::Build { sources, out } => {
+        DbCommand::Build { sources, out, no_thumbnails } => {
             let sources = if sources.is_empty() {
                 let installed = PathBuf::from(SWEET_HOME_3D_FURNITURE);
                 anyhow::ensure!(
@@ -57,7 +60,7 @@ pub fn run(args: DbArgs) -> anyhow::Result<()> {
                 sources
             };
             let out = out.unwrap_or_else(default_dir);
-            let report = build_db(&sources, &out)?;
+            let report = build_db(&sources, &out, !no_thumbnails)?;
             for (src, model, why) in &report.skipped {
                 println!("skipped {model} ({src}): {why}");
             }

@@ -80,8 +80,9 @@ fn add_obj_folder(dir: &Path, report: &mut BuildReport) -> Result<()> {
     Ok(())
 }
 
-/// Indexes `sources` into `out` (writing `out/catalog.json`).
-pub fn build_db(sources: &[PathBuf], out: &Path) -> Result<BuildReport> {
+/// Indexes `sources` into `out` (writing `out/catalog.json`, and with `thumbnails` a 96 px render of every
+/// model in `out/thumbs/`).
+pub fn build_db(sources: &[PathBuf], out: &Path, thumbnails: bool) -> Result<BuildReport> {
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let mut report = BuildReport::default();
     for src in sources {
@@ -111,13 +112,30 @@ pub fn build_db(sources: &[PathBuf], out: &Path) -> Result<BuildReport> {
             return Err(Error::io(src, "not a .sh3f file, a 3D-FUTURE folder or a folder of models"));
         }
     }
+    let mut thumbs: Vec<Option<String>> = vec![None; report.indexed.len()];
+    if thumbnails {
+        let dir = out.join("thumbs");
+        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        for (k, e) in report.indexed.iter().enumerate() {
+            let clean: String = e.name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).collect();
+            let file = format!("thumbs/{k:04}_{clean}.png");
+            match super::thumbnail::render_thumbnail(e, &out.join(&file), 96) {
+                Ok(()) => thumbs[k] = Some(file),
+                Err(err) => {
+                    report.skipped.push((e.path.display().to_string(), e.name.clone(), format!("thumbnail: {err}")))
+                }
+            }
+        }
+    }
     let models: Vec<serde_json::Value> = report
         .indexed
         .iter()
-        .map(|e| {
+        .zip(&thumbs)
+        .map(|(e, thumb)| {
             json!({
                 "file": relative(out, &e.path), "name": e.name, "category": e.category, "licence": e.licence,
                 "rotation": e.rotation, "scale": e.scale, "min": e.min, "max": e.max, "triangles": e.triangles,
+                "thumbnail": thumb,
             })
         })
         .collect();

@@ -6,10 +6,12 @@
 mod build;
 mod model_set;
 mod sh3f;
+mod thumbnail;
 
 pub use build::{build_db, BuildReport, SWEET_HOME_3D_FURNITURE};
 pub use model_set::{entry_for, ModelEntry, ModelSet};
 pub use sh3f::{class_of, extract_sh3f, read_sh3f, Sh3fLibrary, Sh3fModel};
+pub use thumbnail::render_thumbnail;
 
 /// The model folder a run uses: `explicit` (--db or the script's choice) if given; else `PSDR_DB`; else the
 /// index of the installed Sweet Home 3D libraries in ~/.cache/psdr/db (built on first use, then reused); else
@@ -27,7 +29,7 @@ pub fn default_db(explicit: Option<&std::path::Path>, fallback: &std::path::Path
         let cache = PathBuf::from(home).join(".cache/psdr/db");
         if !cache.join("catalog.json").is_file() {
             eprintln!("indexing the Sweet Home 3D furniture libraries into {} (once)...", cache.display());
-            build_db(&[installed.to_path_buf()], &cache)?;
+            build_db(&[installed.to_path_buf()], &cache, false)?;
         }
         return Ok(cache);
     }
