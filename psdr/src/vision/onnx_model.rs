@@ -79,12 +79,24 @@ fn runtime(models: Option<&Path>) -> Result<&'static ort::environment::Environme
         .map_err(|e| Error::Invalid(e.clone()))
 }
 
+/// How a model wants its pixels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InputContract {
+    /// NCHW `[1, 3, H, W]`, ImageNet-normalised sRGB: the depth, segmentation and fov models.
+    NchwImageNet,
+    /// `[1, 3, H, W]` or `[1, H, W, 3]` (told apart by where the 3 is), sRGB in 0..1 with any normalisation baked
+    /// into the model: image-embedding models.
+    UnitAnyLayout,
+}
+
 /// A loaded image model and its input size (None: dynamic).
 pub struct OnnxModel {
     pub path: PathBuf,
     session: Session,
     input: String,
     fixed_size: Option<(usize, usize)>,
+    contract: InputContract,
+    nhwc: bool,
 }
 
 /// One output tensor, as f32 whatever its element type.
@@ -96,7 +108,12 @@ pub struct ModelOutput {
 }
 
 impl OnnxModel {
+    /// Loads a model of the depth/segmentation/fov contract (NCHW, ImageNet normalisation).
     pub fn load(path: &Path) -> Result<OnnxModel> {
+        Self::load_with(path, InputContract::NchwImageNet)
+    }
+
+    pub fn load_with(path: &Path, contract: InputContract) -> Result<OnnxModel> {
         if !path.is_file() {
             return Err(Error::io(path, "model file not found"));
         }
@@ -115,12 +132,16 @@ impl OnnxModel {
                 return Err(Error::io(path, format!("the input must be a float32 [1, 3, H, W] tensor, not {other:?}")))
             }
         };
-        if shape[1] != 3 || shape[0] > 1 {
-            return Err(Error::io(path, format!("the input must be [1, 3, H, W], not {shape:?}")));
+        let nhwc = contract == InputContract::UnitAnyLayout && shape[3] == 3 && shape[1] != 3;
+        if (!nhwc && shape[1] != 3) || shape[0] > 1 {
+            let want =
+                if contract == InputContract::UnitAnyLayout { "[1, 3, H, W] or [1, H, W, 3]" } else { "[1, 3, H, W]" };
+            return Err(Error::io(path, format!("the input must be {want}, not {shape:?}")));
         }
-        let fixed_size = (shape[2] > 0 && shape[3] > 0).then_some((shape[3] as usize, shape[2] as usize));
+        let (hd, wd) = if nhwc { (shape[1], shape[2]) } else { (shape[2], shape[3]) };
+        let fixed_size = (hd > 0 && wd > 0).then_some((wd as usize, hd as usize));
         let input = input.name().to_string();
-        Ok(OnnxModel { path: path.to_path_buf(), session, input, fixed_size })
+        Ok(OnnxModel { path: path.to_path_buf(), session, input, fixed_size, contract, nhwc })
     }
 
     /// The size (w, h) the photo is fed at.
@@ -138,16 +159,19 @@ impl OnnxModel {
         let srgb: Vec<f32> =
             photo.data.iter().map(|v| crate::scene::texture_linear_to_srgb(v.clamp(0.0, 1.0))).collect();
         let resized = resize_bilinear(&srgb, photo.width, photo.height, photo.channels, w, h);
-        let mut nchw = vec![0.0f32; 3 * w * h];
+        let mut pixels = vec![0.0f32; 3 * w * h];
         for c in 0..3 {
             let src = c.min(photo.channels - 1);
             for p in 0..w * h {
-                nchw[c * w * h + p] = (resized[p * photo.channels + src] - MEAN[c]) / STD[c];
+                let v = resized[p * photo.channels + src];
+                let v = if self.contract == InputContract::NchwImageNet { (v - MEAN[c]) / STD[c] } else { v };
+                pixels[if self.nhwc { p * 3 + c } else { c * w * h + p }] = v;
             }
         }
         let path = self.path.clone();
         let err = |e: ort::Error| Error::io(&path, format!("running the model: {e}"));
-        let tensor = Tensor::from_array(([1usize, 3, h, w], nchw)).map_err(err)?;
+        let shape = if self.nhwc { [1usize, h, w, 3] } else { [1usize, 3, h, w] };
+        let tensor = Tensor::from_array((shape, pixels)).map_err(err)?;
         let outputs = self.session.run(ort::inputs![self.input.as_str() => tensor]).map_err(err)?;
         let value = &outputs[0];
         if let Ok((shape, data)) = value.try_extract_tensor::<f32>() {
