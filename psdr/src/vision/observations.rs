@@ -301,7 +301,7 @@ impl Observations {
         self.depth.as_ref().ok_or_else(|| {
             Error::Invalid(format!(
                 "no depth for {}: put {s}.depth.exr (or a 16-bit {s}.depth.png) beside the photo, or pass --depth FILE \
-                 (--depth-units metres|relative)",
+                 (--depth-units metres|relative|disparity), or --models DIR holding a depth.onnx",
                 self.photo_path.display(),
                 s = self.stem()
             ))
@@ -313,7 +313,8 @@ impl Observations {
         self.instances.as_ref().ok_or_else(|| {
             Error::Invalid(format!(
                 "no segmentation for {}: put {s}.masks.png (16-bit instance ids, 0 = none) and {s}.labels.json \
-                 ({{\"<id>\": \"<class>\"}}) beside the photo, or pass --masks FILE --labels FILE",
+                 ({{\"<id>\": \"<class>\"}}) beside the photo, or pass --masks FILE --labels FILE, or --models DIR holding a \
+                 segmentation.onnx",
                 self.photo_path.display(),
                 s = self.stem()
             ))
