@@ -4,6 +4,7 @@
 mod depth_calibration;
 mod light_fit;
 mod light_init;
+mod material_search;
 mod object_init;
 mod plane_fit;
 mod point_cloud;
@@ -13,6 +14,7 @@ mod room_scene;
 pub use depth_calibration::{calibrate_relative_depth, DepthCalibration};
 pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use light_init::{init_lights, LightInitOptions};
+pub use material_search::{library_textures, search_materials, transformed_view, LibraryTexture, MaterialMatch};
 pub use object_init::{init_objects, Candidate, ObjectInitOptions, ObjectPlacement, SkippedInstance};
 pub use plane_fit::{fit_plane, fit_plane_in_depth, ransac_plane, symmetric_eigen, Plane};
 pub use point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};
