@@ -181,3 +181,137 @@ record("poses", out);
 "#
     )
 }
+
+use glam::{Quat, Vec3};
+use psdr::render::{render_cpu, Frame, SceneData};
+use psdr::scene::{load_obj, save_scene, Material, Object, Pose, Scene};
+use psdr::stages::ObjectPlacement;
+use psdr::vision::{canonical_class, Instance, Instances};
+use std::path::Path;
+
+/// A generated model (`CLASS_K`) placed on the floor (or on another object) at `at`, turned by `yaw` degrees.
+pub struct Item {
+    pub model: &'static str,
+    pub at: Vec3,
+    pub yaw: f32,
+}
+
+impl Item {
+    pub fn class(&self) -> &'static str {
+        self.model.split('_').next().unwrap_or("object")
+    }
+}
+
+/// The degrees a generated model of `class` looks the same turned by (the table's four legs: 180; the lamp's
+/// square boxes: 90).
+pub fn symmetry(class: &str) -> f32 {
+    match class {
+        "table" => 180.0,
+        "lamp" => 90.0,
+        _ => 360.0,
+    }
+}
+
+/// `room` (from `rooms::room_scene`, no furniture) with the items' models from `db_dir`, rendered at the room's
+/// camera (max depth 1): the scene, the frame, and its instances (one per visible item, classes by name; the
+/// room's surfaces as floor/wall/ceiling, its ceiling light left out).
+pub fn furnished_room(
+    room: &Scene,
+    room_classes: &[String],
+    items: &[Item],
+    db_dir: &Path,
+) -> (Scene, Frame, Instances) {
+    let mut truth = room.clone();
+    let mut classes = room_classes.to_vec();
+    truth.materials.push(Material::diffuse("wood", Vec3::splat(0.4)));
+    let m = truth.materials.len() - 1;
+    for it in items {
+        let mut parts = load_obj(&db_dir.join(format!("{}.obj", it.model))).unwrap().parts;
+        parts.iter_mut().for_each(|p| p.material = m);
+        truth.objects.push(Object {
+            name: it.model.into(),
+            parts,
+            pose: Pose { translation: it.at, rotation: Quat::from_rotation_y(it.yaw.to_radians()), scale: Vec3::ONE },
+            emitter: None,
+        });
+        classes.push(it.class().into());
+    }
+    truth.settings.max_depth = 1;
+    let f = render_cpu(&SceneData::build(&truth).unwrap(), &truth.settings, &|_, _| {});
+    let (w, h) = (truth.camera.width as usize, truth.camera.height as usize);
+    let mut inst = Instances { width: w, height: h, ids: vec![0; w * h], instances: vec![] };
+    for (o, class) in classes.iter().enumerate() {
+        let pixels = f.object_id.iter().filter(|&&i| i == o as u32).count();
+        if pixels == 0 || truth.objects[o].emitter.is_some() {
+            continue;
+        }
+        let id = o as u16 + 1;
+        for (p, &i) in f.object_id.iter().enumerate() {
+            if i == o as u32 {
+                inst.ids[p] = id;
+            }
+        }
+        let (c, kind) = canonical_class(class);
+        inst.instances.push(Instance { id, label: Some(class.clone()), class: c.into(), kind, pixels });
+    }
+    (truth, f, inst)
+}
+
+/// Writes what `refine_script` reads into `dir`: start.json (the room with the placed objects, one material
+/// each), NAME.mask.exr per placed object (its instance), depth.exr and photo.png. Returns the objects' names.
+pub fn write_refinement_inputs(
+    dir: &Path,
+    room: &Scene,
+    placed: &[(ObjectPlacement, Object)],
+    inst: &Instances,
+    frame: &Frame,
+) -> Vec<String> {
+    std::fs::create_dir_all(dir).unwrap();
+    let (w, h) = (frame.width, frame.height);
+    let mut start = room.clone();
+    let mut names = vec![];
+    for (p, o) in placed {
+        let mut o = o.clone();
+        start.materials.push(Material::diffuse(&p.name, Vec3::splat(0.5)));
+        let mi = start.materials.len() - 1;
+        o.parts.iter_mut().for_each(|q| q.material = mi);
+        start.objects.push(o);
+        let mask: Vec<f32> = inst.ids.iter().map(|&v| (v == p.instance) as u32 as f32).collect();
+        psdr::output::write_exr_channels(&dir.join(format!("{}.mask.exr", p.name)), w, h, &[("Y".into(), mask)])
+            .unwrap();
+        names.push(p.name.clone());
+    }
+    start.settings.max_depth = 1;
+    psdr::output::write_exr_channels(&dir.join("depth.exr"), w, h, &[("Z".into(), frame.depth.clone())]).unwrap();
+    psdr::output::write_png_srgb(&dir.join("photo.png"), w, h, &frame.radiance).unwrap();
+    save_scene(&start, &dir.join("start.json")).unwrap();
+    names
+}
+
+/// Runs `refine_script(names, iters)` on the inputs in `dir`; returns the recorded poses (name -> #{t, yaw,
+/// scale}).
+pub fn run_refinement(dir: &Path, names: &[String], iters: usize) -> serde_json::Value {
+    use psdr::script::{run_script, RunOptions, ScriptRun};
+    std::fs::write(dir.join("refine.rhai"), refine_script(names, iters)).unwrap();
+    let out = dir.join(format!("out{iters}"));
+    run_script(
+        ScriptRun {
+            script: dir.join("refine.rhai"),
+            photo: dir.join("photo.png"),
+            out: out.clone(),
+            sets: vec![],
+            options: RunOptions { quiet: true, preview_spp: 1, ..Default::default() },
+            command: "refinement".into(),
+        },
+        Box::new(psdr::backend::CpuBackend),
+    )
+    .unwrap();
+    let res: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
+    res["recorded"]["poses"].clone()
+}
+
+/// The first number of a JSON number or array (a parameter's value as `s.get` records it).
+pub fn first_number(v: &serde_json::Value) -> f32 {
+    v.as_array().map_or_else(|| v.as_f64().unwrap_or(f64::NAN), |a| a[0].as_f64().unwrap_or(f64::NAN)) as f32
+}

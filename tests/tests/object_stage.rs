@@ -8,35 +8,14 @@
 //! 3.1 degrees, 2.7 %). Objects cut by the image border are placed with finite poses but can be far off
 //! (measured: a chair 9 % / 149 degrees with the wrong model, a table 15 % / 89 degrees): a known gap.
 
-use glam::{Quat, Vec3};
-use psdr::backend::CpuBackend;
+use glam::Vec3;
 use psdr::db::ModelSet;
-use psdr::render::{render_cpu, SceneData};
-use psdr::scene::{load_obj, save_scene, Material, Object, Pose, Scene};
-use psdr::script::{run_script, RunOptions, ScriptRun};
 use psdr::stages::{init_objects, ObjectInitOptions};
-use psdr::vision::{canonical_class, Instance, Instances};
-use psdr_tests::furniture::{refine_script, write_model_set};
+use psdr_tests::furniture::{
+    first_number, furnished_room, run_refinement, symmetry, write_model_set, write_refinement_inputs, Item,
+};
 use psdr_tests::rooms::{room_scene, RoomSpec};
 use psdr_tests::temp_dir;
-
-struct Item {
-    model: &'static str,
-    at: Vec3,
-    yaw: f32,
-}
-
-fn symmetry(class: &str) -> f32 {
-    match class {
-        "table" => 180.0,
-        "lamp" => 90.0,
-        _ => 360.0,
-    }
-}
-
-fn first(v: &serde_json::Value) -> f32 {
-    v.as_array().map_or_else(|| v.as_f64().unwrap(), |a| a[0].as_f64().unwrap()) as f32
-}
 
 #[test]
 fn furnished_rooms_are_retrieved_placed_and_refined() {
@@ -70,84 +49,18 @@ fn furnished_rooms_are_retrieved_placed_and_refined() {
     let (mut instances_total, mut retrieved) = (0, 0);
     let mut worst = [0.0f32; 3];
     for (ri, items) in rooms.iter().enumerate() {
-        let (room, mut classes) = room_scene(&r, &[], false, iw, ih);
-        let mut truth: Scene = room.clone();
-        truth.materials.push(Material::diffuse("wood", Vec3::splat(0.4)));
-        let m = truth.materials.len() - 1;
-        for it in items {
-            let mut parts = load_obj(&db_dir.join(format!("{}.obj", it.model))).unwrap().parts;
-            parts.iter_mut().for_each(|p| p.material = m);
-            truth.objects.push(Object {
-                name: it.model.into(),
-                parts,
-                pose: Pose {
-                    translation: it.at,
-                    rotation: Quat::from_rotation_y(it.yaw.to_radians()),
-                    scale: Vec3::ONE,
-                },
-                emitter: None,
-            });
-            classes.push(it.model.split('_').next().unwrap().into());
-        }
-        truth.settings.max_depth = 1;
-        let f = render_cpu(&SceneData::build(&truth).unwrap(), &truth.settings, &|_, _| {});
-        let mut inst =
-            Instances { width: iw as usize, height: ih as usize, ids: vec![0; (iw * ih) as usize], instances: vec![] };
-        for (o, class) in classes.iter().enumerate() {
-            let pixels = f.object_id.iter().filter(|&&i| i == o as u32).count();
-            // Object 6 is the test room's ceiling light, not furniture.
-            if pixels == 0 || o == 6 {
-                continue;
-            }
-            let id = o as u16 + 1;
-            for (p, &i) in f.object_id.iter().enumerate() {
-                if i == o as u32 {
-                    inst.ids[p] = id;
-                }
-            }
-            let (c, kind) = canonical_class(class);
-            inst.instances.push(Instance { id, label: Some(class.clone()), class: c.into(), kind, pixels });
-        }
+        let (room, classes) = room_scene(&r, &[], false, iw, ih);
+        let (truth, f, inst) = furnished_room(&room, &classes, items, &db_dir);
         let (placed, skipped) = init_objects(&room, &f.depth, &inst, &db, &ObjectInitOptions::default());
         eprintln!("room {ri}: {} placed, skipped {skipped:?}", placed.len());
         // Refinement through the script, on the initialised objects.
         let rdir = dir.join(format!("room{ri}"));
-        std::fs::create_dir_all(&rdir).unwrap();
-        let mut start = room.clone();
-        let mut names = vec![];
-        for (p, mut o) in placed.clone() {
-            start.materials.push(Material::diffuse(&p.name, Vec3::splat(0.5)));
-            let mi = start.materials.len() - 1;
-            o.parts.iter_mut().for_each(|q| q.material = mi);
-            start.objects.push(o);
-            let mask: Vec<f32> = inst.ids.iter().map(|&v| (v == p.instance) as u32 as f32).collect();
-            psdr::output::write_exr_channels(&rdir.join(format!("{}.mask.exr", p.name)), iw, ih, &[("Y".into(), mask)])
-                .unwrap();
-            names.push(p.name.clone());
-        }
-        start.settings.max_depth = 1;
-        psdr::output::write_exr_channels(&rdir.join("depth.exr"), iw, ih, &[("Z".into(), f.depth.clone())]).unwrap();
-        psdr::output::write_png_srgb(&rdir.join("photo.png"), iw, ih, &f.radiance).unwrap();
-        save_scene(&start, &rdir.join("start.json")).unwrap();
-        std::fs::write(rdir.join("refine.rhai"), refine_script(&names, 40)).unwrap();
+        let names = write_refinement_inputs(&rdir, &room, &placed, &inst, &f);
         let t = std::time::Instant::now();
-        run_script(
-            ScriptRun {
-                script: rdir.join("refine.rhai"),
-                photo: rdir.join("photo.png"),
-                out: rdir.join("out"),
-                sets: vec![],
-                options: RunOptions { quiet: true, preview_spp: 1, ..Default::default() },
-                command: "test".into(),
-            },
-            Box::new(CpuBackend),
-        )
-        .unwrap();
-        let res: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(rdir.join("out/result.json")).unwrap()).unwrap();
+        let poses = run_refinement(&rdir, &names, 40);
         eprintln!("  refined {} objects in {:.1} s", names.len(), t.elapsed().as_secs_f32());
         for it in items {
-            let class = it.model.split('_').next().unwrap();
+            let class = it.class();
             let o = truth.object_index(it.model).unwrap();
             let Some((p, _)) = placed.iter().find(|(p, _)| p.instance as usize == o + 1) else {
                 let visible = f.object_id.iter().filter(|&&i| i == o as u32).count();
@@ -157,18 +70,18 @@ fn furnished_rooms_are_retrieved_placed_and_refined() {
             };
             instances_total += 1;
             retrieved += usize::from(p.chosen.model == it.model);
-            let q = &res["recorded"]["poses"][&p.name];
+            let q = &poses[&p.name];
             let t: Vec<f32> = q["t"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap() as f32).collect();
             let centre = Vec3::new(t[0], t[1], t[2]);
             let dist = (it.at - r.cam).length();
             let err = (centre - it.at).length() / dist;
             let sym = symmetry(class);
-            let yaw = first(&q["yaw"]).to_degrees();
+            let yaw = first_number(&q["yaw"]).to_degrees();
             let yaw_err = (((yaw - it.yaw).rem_euclid(sym) + sym / 2.0).rem_euclid(sym) - sym / 2.0).abs();
             // Size: the retrieved model's size times its scale against the true model's.
             let chosen = db.models.iter().find(|m| m.name == p.chosen.model).unwrap();
             let true_model = db.models.iter().find(|m| m.name == it.model).unwrap();
-            let size_err = (chosen.size().y * first(&q["scale"]) / true_model.size().y - 1.0).abs();
+            let size_err = (chosen.size().y * first_number(&q["scale"]) / true_model.size().y - 1.0).abs();
             eprintln!(
                 "  {}: retrieved {} (init iou {:.2}, support {}), centre {:.1} % of {dist:.1} m, yaw {yaw:.1} vs {} ({yaw_err:.1}), size {:.1} %",
                 it.model, p.chosen.model, p.chosen.iou, p.support, err * 100.0, it.yaw, size_err * 100.0

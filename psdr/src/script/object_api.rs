@@ -36,9 +36,12 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
             "top_k" => o.top_k = num.max(1.0) as usize,
             "depth_weight" => o.depth_weight = num as f32,
             "max_candidates" => o.max_candidates = num.max(1.0) as usize,
+            "scale_weight" => o.scale_weight = num as f32,
+            "finalists" => o.finalists = num.max(1.0) as usize,
             other => {
                 return Err(Error::Invalid(format!(
-                    "objects_init: unknown option '{other}' (db, min_pixels, erode, yaws, sweep_width, top_k, depth_weight, max_candidates)"
+                    "objects_init: unknown option '{other}' (db, min_pixels, erode, yaws, sweep_width, top_k, depth_weight, max_candidates, \
+                     scale_weight, finalists)"
                 )))
             }
         }
