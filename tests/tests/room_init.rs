@@ -222,7 +222,7 @@ fn room_script_fits_the_box_of_a_rendered_room() {
     assert!((room["height"].as_f64().unwrap() - r.h as f64).abs() / (r.h as f64) < 0.03, "{room}");
     let opt = &res["stages"][0]["optimizations"][0];
     assert!(opt["final_loss"].as_f64().unwrap() <= opt["first_loss"].as_f64().unwrap() + 1e-3, "{opt}");
-    assert!(out.join("scene.json").is_file() && out.join("render.png").is_file());
+    assert!(out.join("scene.json").is_file() && out.join("render.png").is_file() && out.join("scene.glb").is_file());
     // result.json's room: the fitted box, its planes and the camera relative to it.
     let rr = &res["room"];
     assert!((rr["camera"]["height_above_floor"].as_f64().unwrap() - r.cam.y as f64).abs() < 0.05, "{rr}");

@@ -1,5 +1,6 @@
-//! `psdr export SCENE --format mitsuba -o DIR`
+//! `psdr export SCENE --format mitsuba|gltf -o DIR`
 
+use crate::export::gltf::export_glb;
 use crate::export::mitsuba::export_mitsuba;
 use crate::scene::load_scene;
 use clap::{Args, ValueEnum};
@@ -9,6 +10,8 @@ use std::path::PathBuf;
 enum Format {
     /// Mitsuba 3 XML scene with PLY meshes and EXR textures.
     Mitsuba,
+    /// glTF 2.0 binary (DIR/scene.glb) for Blender and the web.
+    Gltf,
 }
 
 #[derive(Args)]
@@ -27,6 +30,12 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
         Format::Mitsuba => {
             let xml = export_mitsuba(&scene, &a.output)?;
             println!("wrote {}", xml.display());
+        }
+        Format::Gltf => {
+            std::fs::create_dir_all(&a.output)?;
+            let glb = a.output.join("scene.glb");
+            export_glb(&scene, &glb)?;
+            println!("wrote {}", glb.display());
         }
     }
     Ok(())

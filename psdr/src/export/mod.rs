@@ -1,4 +1,5 @@
 //! Exports to other renderers.
 
+pub mod gltf;
 pub mod mitsuba;
 mod ply;
