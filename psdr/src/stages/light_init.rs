@@ -77,7 +77,10 @@ pub fn init_lights(scene: &mut Scene, opts: &LightInitOptions) -> Vec<String> {
     for i in 0..nx {
         for k in 0..nz {
             let p = Vec3::new(x0.x + cw * (i as f32 + 0.5), ceiling.y - 0.01, z0.z + cd * (k as f32 + 0.5));
-            if in_view(p) || behind(p) {
+            // Any part of it in view would show in the photo: test its corners, not only its centre.
+            let (hx, hz) = (0.5 * cw * opts.scale, 0.5 * cd * opts.scale);
+            let corners = [(-hx, -hz), (hx, -hz), (-hx, hz), (hx, hz)].map(|(dx, dz)| p + Vec3::new(dx, 0.0, dz));
+            if in_view(p) || corners.iter().any(|c| in_view(*c)) || behind(p) {
                 continue;
             }
             let name = format!("light_ceiling_{i}_{k}");
