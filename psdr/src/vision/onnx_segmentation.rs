@@ -255,23 +255,7 @@ pub fn estimate_instances(model: &mut OnnxModel, photo: &Image) -> Result<Instan
             }
         }
         let (class, kind) = canonical_class(ADE20K_CLASSES[k]);
-        let id = if kind == ClassKind::Structure {
-            match structure_ids.iter().find(|(c, _)| *c == k) {
-                Some(&(_, id)) => id,
-                None => {
-                    let id = instances.len() as u16 + 1;
-                    structure_ids.push((k, id));
-                    instances.push(Instance {
-                        id,
-                        label: Some(ADE20K_CLASSES[k].into()),
-                        class: class.into(),
-                        kind,
-                        pixels: 0,
-                    });
-                    id
-                }
-            }
-        } else if region.len() >= min_pixels && instances.len() < u16::MAX as usize - 1 {
+        let new_instance = |instances: &mut Vec<Instance>| {
             let id = instances.len() as u16 + 1;
             instances.push(Instance {
                 id,
@@ -281,6 +265,18 @@ pub fn estimate_instances(model: &mut OnnxModel, photo: &Image) -> Result<Instan
                 pixels: 0,
             });
             id
+        };
+        let id = if kind == ClassKind::Structure {
+            match structure_ids.iter().find(|(c, _)| *c == k) {
+                Some(&(_, id)) => id,
+                None => {
+                    let id = new_instance(&mut instances);
+                    structure_ids.push((k, id));
+                    id
+                }
+            }
+        } else if region.len() >= min_pixels && instances.len() < u16::MAX as usize - 1 {
+            new_instance(&mut instances)
         } else {
             0
         };
