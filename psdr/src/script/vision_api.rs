@@ -8,6 +8,7 @@ use crate::loss::{Image, Tensor};
 use crate::stages::{init_room, room_scene, Intrinsics, RoomInitOptions};
 use crate::vision::{ObservationInputs, Observations};
 use rhai::{Array, Dynamic, Engine, Map};
+use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
@@ -103,7 +104,41 @@ fn room(run: &RunRef, o: &Observations, opts: &Map) -> crate::Result<SceneHandle
     Ok(SceneHandle(room_scene(&e, fov, o.photo.width as u32, o.photo.height as u32)))
 }
 
+/// The embedding of an image (a tensor's value) by the encoder at `model` (loaded once per path and run).
+fn embedding(
+    cache: &RefCell<Vec<(PathBuf, crate::vision::OnnxModel)>>,
+    img: &Tensor,
+    model: &str,
+) -> crate::Result<Array> {
+    let path = PathBuf::from(model);
+    let mut c = cache.borrow_mut();
+    if !c.iter().any(|(p, _)| *p == path) {
+        let m = crate::vision::load_embedding_model(&path)?;
+        c.push((path.clone(), m));
+    }
+    let m =
+        c.iter_mut().find(|(p, _)| *p == path).map(|(_, m)| m).ok_or_else(|| Error::Invalid("model cache".into()))?;
+    let e = crate::vision::embed(m, img.value())?;
+    Ok(e.into_iter().map(|v| Dynamic::from(v as f64)).collect())
+}
+
 pub fn register(engine: &mut Engine, run: &RunRef) {
+    let cache: Rc<RefCell<Vec<(PathBuf, crate::vision::OnnxModel)>>> = Rc::default();
+    engine.register_fn("embedding", move |img: Tensor, model: &str| -> Rr<Array> {
+        embedding(&cache, &img, model).map_err(rhai_err)
+    });
+    engine.register_fn("cosine", |a: Array, b: Array| -> Rr<f64> {
+        if a.len() != b.len() || a.is_empty() {
+            return Err(rhai_err(Error::Invalid(format!("cosine: vectors of {} and {} numbers", a.len(), b.len()))));
+        }
+        let f = |v: &Dynamic| v.as_float().unwrap_or(f64::NAN);
+        let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+        for (x, y) in a.iter().zip(&b) {
+            let (x, y) = (f(x), f(y));
+            (ab, aa, bb) = (ab + x * y, aa + x * x, bb + y * y);
+        }
+        Ok(ab / (aa * bb).sqrt().max(1e-30))
+    });
     engine.register_type_with_name::<ObsHandle>("Observations");
     let r = run.clone();
     engine.register_fn("observe", move |path: &str| observe(&r, path, &Map::new()));
