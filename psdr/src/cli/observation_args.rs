@@ -28,6 +28,9 @@ pub struct ObservationArgs {
     /// Folder of ONNX models (depth.onnx, segmentation.onnx, fov.onnx; see the README) for what no file gives.
     #[arg(long, env = "PSDR_MODELS")]
     models: Option<PathBuf>,
+    /// The vanishing-point fov is used only when its bootstrap standard deviation is below this many degrees.
+    #[arg(long, default_value_t = 1.0)]
+    fov_max_sigma: f32,
 }
 
 impl ObservationArgs {
@@ -41,6 +44,7 @@ impl ObservationArgs {
             fov_y_deg: self.fov,
             camera_height: self.camera_height,
             models: self.models.clone(),
+            fov_max_sigma_deg: self.fov_max_sigma,
         }
     }
 }

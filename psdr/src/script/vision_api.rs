@@ -30,18 +30,18 @@ fn observe(run: &RunRef, path: &str, opts: &Map) -> Rr<ObsHandle> {
             "labels" => inputs.labels = Some(PathBuf::from(text()?)),
             "models" => inputs.models = Some(PathBuf::from(text()?)),
             "depth_units" => inputs.depth_units = text()?.parse().map_err(|e: String| rhai_err(Error::Invalid(e)))?,
-            "fov" | "camera_height" => {
+            "fov" | "camera_height" | "fov_max_sigma" => {
                 let f = v.as_float().or_else(|_| v.as_int().map(|i| i as f64));
                 let f = f.map_err(|_| rhai_err(Error::Invalid(format!("observe: '{k}' must be a number"))))? as f32;
-                if k == "fov" {
-                    inputs.fov_y_deg = Some(f);
-                } else {
-                    inputs.camera_height = f;
+                match k.as_str() {
+                    "fov" => inputs.fov_y_deg = Some(f),
+                    "camera_height" => inputs.camera_height = f,
+                    _ => inputs.fov_max_sigma_deg = f,
                 }
             }
             other => {
                 return Err(rhai_err(Error::Invalid(format!(
-                    "observe: unknown option '{other}' (depth, depth_units, masks, labels, models, fov, camera_height)"
+                    "observe: unknown option '{other}' (depth, depth_units, masks, labels, models, fov, camera_height, fov_max_sigma)"
                 ))))
             }
         }

@@ -33,6 +33,8 @@ pub struct ObservationInputs {
     pub camera_height: f32,
     /// A folder of ONNX models (`depth.onnx`, `segmentation.onnx`, `fov.onnx`) for what no file gives.
     pub models: Option<PathBuf>,
+    /// The vanishing-point fov is used only when its bootstrap standard deviation is below this (degrees).
+    pub fov_max_sigma_deg: f32,
 }
 
 /// The camera height assumed when depth is relative: eye level of a standing photographer, a little low.
@@ -52,6 +54,7 @@ impl ObservationInputs {
             fov_y_deg: None,
             camera_height: DEFAULT_CAMERA_HEIGHT,
             models: std::env::var_os("PSDR_MODELS").map(PathBuf::from),
+            fov_max_sigma_deg: VanishingOptions::default().max_sigma_deg,
         }
     }
 
@@ -196,7 +199,10 @@ impl Observations {
                 sources.insert("fov".into(), format!("model {}", m.path.display()));
                 f
             }
-            _ => match estimate_fov(&photo, &VanishingOptions::default()) {
+            _ => match estimate_fov(
+                &photo,
+                &VanishingOptions { max_sigma_deg: inputs.fov_max_sigma_deg, ..Default::default() },
+            ) {
                 Ok(e) => {
                     sources.insert(
                         "fov".into(),
