@@ -8,10 +8,15 @@
 
 use super::point_cloud::{erode, surface_points, Intrinsics};
 use crate::db::{ModelEntry, ModelSet};
-use crate::render::{render_cpu, SceneData};
+use crate::render::bvh::trace_closest;
+use crate::render::camera::camera_ray;
+use crate::render::layout::NONE;
+use crate::render::scene_data::camera_gpu;
+use crate::render::SceneData;
 use crate::scene::{box_mesh, Camera, Material, MeshPart, Object, Pose, RenderSettings, Scene};
 use crate::vision::{ClassKind, Instances};
 use glam::{Quat, Vec3};
+use rayon::prelude::*;
 use std::path::PathBuf;
 
 /// Knobs of the initialisation.
@@ -150,12 +155,12 @@ fn footprint_size(parts: &[MeshPart]) -> f32 {
     (hi.x - lo.x).max(hi.z - lo.z).max(0.05)
 }
 
-/// Renders one model alone with the photo's camera at the sweep's size. The model's BVH is built once at the
-/// identity pose; a pose (translation, yaw, uniform scale) is rendered by moving the camera into the model's
-/// frame instead, so a sweep costs renders, not rebuilds.
+/// Renders one model alone with the photo's camera at the sweep's size: the object id and camera-space depth
+/// of one ray through each pixel's centre (a mask and a depth need no shading). The model's BVH is built once
+/// at the identity pose; a pose (translation, yaw, uniform scale) is rendered by moving the camera into the
+/// model's frame instead, so a sweep costs ray casts, not rebuilds.
 struct PoseRenderer {
     camera: Camera,
-    scene: Scene,
     data: SceneData,
 }
 
@@ -181,10 +186,11 @@ impl PoseRenderer {
             requires_grad: vec![],
         };
         let data = SceneData::build(&scene).ok()?;
-        Some(PoseRenderer { camera: cam, scene, data })
+        Some(PoseRenderer { camera: cam, data })
     }
 
-    /// Object ids and depth (world units) with the model at `pose` (uniform scale).
+    /// Object ids (0 on the model, `NONE` elsewhere) and depth (world units, 0 on a miss) with the model at
+    /// `pose` (uniform scale).
     fn render(&mut self, pose: Pose) -> Option<(Vec<u32>, Vec<f32>)> {
         let (inv, s) = (pose.rotation.inverse(), pose.scale.x.max(1e-6));
         let c = &self.camera;
@@ -192,10 +198,24 @@ impl PoseRenderer {
         local.origin = inv * (c.origin - pose.translation) / s;
         local.forward = inv * c.forward;
         local.up = inv * c.up;
-        self.scene.camera = local;
-        self.data = self.data.rebuild(&self.scene).ok()?;
-        let f = render_cpu(&self.data, &self.scene.settings, &|_, _| {});
-        Some((f.object_id, f.depth.iter().map(|d| d * s).collect()))
+        if !local.origin.is_finite() {
+            return None;
+        }
+        let cam = camera_gpu(&local);
+        let (w, h) = (cam.width, cam.height);
+        let (origin, forward) = (Vec3::from(cam.origin), Vec3::from(cam.forward));
+        let d = &self.data;
+        let (ids, depth): (Vec<u32>, Vec<f32>) = (0..w * h)
+            .into_par_iter()
+            .map(|p| {
+                let dir = camera_ray(&cam, (p % w) as f32 + 0.5, (p / w) as f32 + 0.5);
+                match trace_closest(&d.nodes, &d.triangles, origin, dir, f32::INFINITY) {
+                    Some(hit) => (0, hit.t * dir.dot(forward) * s),
+                    None => (NONE, 0.0),
+                }
+            })
+            .unzip();
+        Some((ids, depth))
     }
 }
 
@@ -258,6 +278,93 @@ fn align(cam: &Camera, renderer: &mut PoseRenderer, mut pose: Pose, target: &Swe
         pose.translation += Vec3::new(step.x, 0.0, step.z);
     }
     pose
+}
+
+fn pose_at(translation: Vec3, yaw_deg: f32, scale: f32) -> Pose {
+    Pose { translation, rotation: Quat::from_rotation_y(yaw_deg.to_radians()), scale: Vec3::splat(scale) }
+}
+
+/// Whether instance `id` reaches the image's edge (so part of it may be out of frame).
+fn touches_border(inst: &Instances, id: u16) -> bool {
+    let (w, h) = (inst.width, inst.height);
+    (0..w).any(|x| inst.ids[x] == id || inst.ids[(h - 1) * w + x] == id)
+        || (0..h).any(|y| inst.ids[y * w] == id || inst.ids[y * w + w - 1] == id)
+}
+
+/// Up to `n` of the sweep's (yaw, place, score) starts, best first, no two closer than `apart` degrees and
+/// none a symmetric twin of another (a table turned by 180 degrees: the same score at the same place).
+fn distinct_yaws(starts: &[(f32, Vec3, f32)], n: usize, apart: f32) -> Vec<(f32, Vec3, f32)> {
+    let mut sorted = starts.to_vec();
+    sorted.sort_by(|a, b| b.2.total_cmp(&a.2));
+    let mut kept: Vec<(f32, Vec3, f32)> = vec![];
+    for s in sorted {
+        let far = |k: &(f32, Vec3, f32)| {
+            let twin = (s.2 - k.2).abs() < 1e-4 && s.1.distance(k.1) < 1e-3;
+            ((s.0 - k.0).rem_euclid(360.0) - 180.0).abs() < 180.0 - apart && !twin
+        };
+        if kept.len() < n && kept.iter().all(far) {
+            kept.push(s);
+        }
+    }
+    kept
+}
+
+/// A local search of one model's pose on the floor (translation x/z and yaw) for the best sweep score.
+struct PoseSearch<'a> {
+    target: &'a SweepTarget,
+    size: f32,
+    prior: f32,
+    depth_weight: f32,
+}
+
+impl PoseSearch<'_> {
+    /// (score, iou) of `pose`.
+    fn eval(&self, renderer: &mut PoseRenderer, pose: Pose) -> Option<(f32, f32)> {
+        let (ids, d) = renderer.render(pose)?;
+        let (iou, s) = score(self.target, &ids, &d, self.size, self.depth_weight);
+        Some((s - self.prior, iou))
+    }
+
+    /// Compass search from `pose` (whose yaw is `yaw` degrees): steps of `step` metres and `yaw_step` degrees
+    /// along x, z and yaw, repeated while one improves, then halved, four times. Returns (yaw, score, iou,
+    /// translation).
+    fn compass(
+        &self,
+        renderer: &mut PoseRenderer,
+        pose: Pose,
+        mut yaw: f32,
+        mut step: f32,
+        mut yaw_step: f32,
+    ) -> Option<(f32, f32, f32, Vec3)> {
+        let (mut best, mut iou) = self.eval(renderer, pose)?;
+        let (mut t, scale) = (pose.translation, pose.scale.x);
+        for _ in 0..4 {
+            for _ in 0..4 {
+                let moves = [
+                    (Vec3::X * step, 0.0),
+                    (-Vec3::X * step, 0.0),
+                    (Vec3::Z * step, 0.0),
+                    (-Vec3::Z * step, 0.0),
+                    (Vec3::ZERO, yaw_step),
+                    (Vec3::ZERO, -yaw_step),
+                ];
+                let mut moved = false;
+                for (dt, dyaw) in moves {
+                    if let Some((s, i)) = self.eval(renderer, pose_at(t + dt, yaw + dyaw, scale)) {
+                        if s > best {
+                            (best, iou, t, yaw, moved) = (s, i, t + dt, yaw + dyaw, true);
+                        }
+                    }
+                }
+                if !moved {
+                    break;
+                }
+            }
+            step /= 2.0;
+            yaw_step /= 2.0;
+        }
+        Some((yaw, best, iou, t))
+    }
 }
 
 /// Places every furniture instance of `inst` in `scene` (whose camera is the photo's and whose `floor`
@@ -353,6 +460,9 @@ pub fn init_objects(
         };
         entries.sort_by(|a, b| misfit(a).total_cmp(&misfit(b)));
         entries.truncate(opts.max_candidates.max(1));
+        // Cut by the image border, the points' top is only a lower bound of the height (a chair whose back is
+        // out of frame shows its seat): a model taller than that is tried at its real size too.
+        let cut = touches_border(inst, i.id);
         let mut options: Vec<(Candidate, Vec<MeshPart>, f32)> = vec![];
         if entries.is_empty() {
             let mut b = box_mesh(footprint, false);
@@ -370,7 +480,6 @@ pub fn init_objects(
         for e in entries {
             match e.load_parts() {
                 Ok(parts) => {
-                    let scale = (top / e.size().y.max(1e-3)).clamp(0.3, 3.0);
                     let c = Candidate {
                         model: e.name.clone(),
                         path: Some(e.path.clone()),
@@ -379,90 +488,84 @@ pub fn init_objects(
                         iou: 0.0,
                         score: f32::MIN,
                     };
-                    options.push((c, parts, scale));
+                    let fitted = (top / e.size().y.max(1e-3)).clamp(0.3, 3.0);
+                    if cut && fitted < 0.95 {
+                        options.push((c.clone(), parts.clone(), 1.0));
+                    }
+                    options.push((c, parts, fitted));
                 }
                 Err(err) => skipped.push(skip(format!("model {} not loadable: {err}", e.name))),
             }
         }
-        // The yaw sweep per candidate, each pose slid into place before it is scored.
-        let mut centres: Vec<Vec3> = vec![centre; options.len()];
-        for ((c, parts, scale), best_centre) in options.iter_mut().zip(centres.iter_mut()) {
+        // The yaw sweep per candidate, each pose slid into place before it is scored; every (yaw, place) is
+        // kept as a starting point for the finalists.
+        let mut starts: Vec<Vec<(f32, Vec3, f32)>> = vec![vec![]; options.len()];
+        for ((c, parts, scale), starts) in options.iter_mut().zip(starts.iter_mut()) {
             let Some(mut renderer) = PoseRenderer::new(cam, parts, sw, sh) else { continue };
             let size = footprint_size(parts) * *scale;
             // Real models have real sizes: scaling one far from 1 to fit is evidence against it.
             let prior = opts.scale_weight * scale.ln().abs();
             for step in 0..opts.yaws.max(1) {
                 let yaw = 360.0 * step as f32 / opts.yaws.max(1) as f32;
-                let start = Pose {
-                    translation: centre,
-                    rotation: Quat::from_rotation_y(yaw.to_radians()),
-                    scale: Vec3::splat(*scale),
-                };
-                let pose = align(cam, &mut renderer, start, &target, sw, sh);
+                let pose = align(cam, &mut renderer, pose_at(centre, yaw, *scale), &target, sw, sh);
                 let Some((ids, d)) = renderer.render(pose) else { continue };
                 let (iou, s) = score(&target, &ids, &d, size, opts.depth_weight);
+                starts.push((yaw, pose.translation, s - prior));
                 if s - prior > c.score {
                     (c.yaw_deg, c.iou, c.score) = (yaw, iou, s - prior);
-                    *best_centre = pose.translation;
                 }
             }
         }
-        let mut order: Vec<usize> = (0..options.len()).collect();
+        let mut order: Vec<usize> = (0..options.len()).filter(|&o| !starts[o].is_empty()).collect();
         order.sort_by(|&a, &b| options[b].0.score.total_cmp(&options[a].0.score));
-        let options: Vec<(Candidate, Vec<MeshPart>, f32, Vec3)> =
-            order.into_iter().map(|i| (options[i].0.clone(), options[i].1.clone(), options[i].2, centres[i])).collect();
-        if options.is_empty() {
+        if order.is_empty() {
             skipped.push(skip("no candidate model could be rendered".into()));
             continue;
         }
-        // The leaders compared again at twice the sweep's resolution, each with its yaw refined between the
-        // sweep's steps by halving: small objects get the pixels to tell close variants apart.
+        // The leaders searched again at twice the sweep's resolution from their three best distinct yaws:
+        // translation and yaw by a compass search on the same score, so that poses the median alignment could
+        // not place (an object cut by the border shows a part whose median moves as it slides) are found, and
+        // small objects' close variants get the pixels to be told apart.
         let (fw, fh) = ((2 * sw).min(w as u32), ((2 * sw).min(w as u32) as usize * h / w).max(6) as u32);
         let fine_target = sweep_target(inst, depth, i.id, fw as usize, fh as usize);
-        let mut finals: Vec<(Candidate, Vec<MeshPart>, f32, Vec3)> = vec![];
-        for (c, parts, scale, centre) in options.iter().take(opts.finalists.max(1)).cloned() {
-            let Some(mut renderer) = PoseRenderer::new(cam, &parts, fw, fh) else { continue };
-            let (size, prior) = (footprint_size(&parts) * scale, opts.scale_weight * scale.ln().abs());
-            let fine = |renderer: &mut PoseRenderer, yaw: f32, centre: Vec3| {
-                let start = Pose {
-                    translation: centre,
-                    rotation: Quat::from_rotation_y(yaw.to_radians()),
-                    scale: Vec3::splat(scale),
-                };
-                let pose = align(cam, renderer, start, &fine_target, fw, fh);
-                let (ids, d) = renderer.render(pose)?;
-                let (iou, s) = score(&fine_target, &ids, &d, size, opts.depth_weight);
-                Some((iou, s - prior, pose.translation))
-            };
-            let Some((iou, sc, t)) = fine(&mut renderer, c.yaw_deg, centre) else { continue };
-            let (mut best, mut centre) = (Candidate { iou, score: sc, ..c }, t);
-            let mut step = 180.0 / opts.yaws.max(1) as f32;
-            for _ in 0..4 {
-                for yaw in [best.yaw_deg - step, best.yaw_deg + step] {
-                    if let Some((iou, sc, t)) = fine(&mut renderer, yaw, centre) {
-                        if sc > best.score {
-                            (best.yaw_deg, best.iou, best.score, centre) = (yaw.rem_euclid(360.0), iou, sc, t);
-                        }
-                    }
+        let mut finals: Vec<(Candidate, f32, Vec3, usize)> = vec![];
+        for &o in order.iter().take(opts.finalists.max(1)) {
+            let (c, parts, scale) = &options[o];
+            let Some(mut renderer) = PoseRenderer::new(cam, parts, fw, fh) else { continue };
+            let size = footprint_size(parts) * scale;
+            let prior = opts.scale_weight * scale.ln().abs();
+            let search = PoseSearch { target: &fine_target, size, prior, depth_weight: opts.depth_weight };
+            let yaw_step = 180.0 / opts.yaws.max(1) as f32;
+            let mut best: Option<(f32, f32, f32, Vec3)> = None;
+            for (yaw, t, _) in distinct_yaws(&starts[o], 3, 4.0 * yaw_step) {
+                let pose = align(cam, &mut renderer, pose_at(t, yaw, *scale), &fine_target, fw, fh);
+                let found = search.compass(&mut renderer, pose, yaw, 0.15 * size, yaw_step);
+                if found.is_some_and(|f| best.is_none_or(|b| f.1 > b.1)) {
+                    best = found;
                 }
-                step /= 2.0;
             }
-            finals.push((best, parts, scale, centre));
+            if let Some((yaw, sc, iou, t)) = best {
+                let chosen = Candidate { yaw_deg: yaw.rem_euclid(360.0), iou, score: sc, ..c.clone() };
+                finals.push((chosen, *scale, t, o));
+            }
         }
         finals.sort_by(|a, b| b.0.score.total_cmp(&a.0.score));
-        let Some((chosen, parts, scale, centre)) = finals.first().cloned() else {
+        let Some((chosen, scale, centre, o)) = finals.first().cloned() else {
             skipped.push(skip("no candidate model could be rendered".into()));
             continue;
         };
-        let rest = options.iter().skip(finals.len()).map(|o| o.0.clone());
-        let alternatives: Vec<Candidate> =
-            finals.iter().skip(1).map(|f| f.0.clone()).chain(rest).take(opts.top_k.saturating_sub(1)).collect();
+        let parts = options[o].1.clone();
+        // Alternatives: the other finalists, then the sweep's order; a model tried at two scales counts once.
+        let mut alternatives: Vec<Candidate> = vec![];
+        let others = finals.iter().skip(1).map(|f| &f.0).chain(order.iter().map(|&o| &options[o].0));
+        for c in others {
+            if c.model != chosen.model && !alternatives.iter().any(|a| a.model == c.model) {
+                alternatives.push(c.clone());
+            }
+        }
+        alternatives.truncate(opts.top_k.saturating_sub(1));
         let name = format!("{}_{}", i.class, i.id);
-        let pose = Pose {
-            translation: centre,
-            rotation: Quat::from_rotation_y(chosen.yaw_deg.to_radians()),
-            scale: Vec3::splat(scale),
-        };
+        let pose = pose_at(centre, chosen.yaw_deg, scale);
         let object = Object { name: name.clone(), parts, pose, emitter: None };
         placed.push((
             ObjectPlacement {
