@@ -354,3 +354,39 @@ pub fn run_refinement(dir: &Path, names: &[String], iters: usize) -> serde_json:
 pub fn first_number(v: &serde_json::Value) -> f32 {
     v.as_array().map_or_else(|| v.as_f64().unwrap_or(f64::NAN), |a| a[0].as_f64().unwrap_or(f64::NAN)) as f32
 }
+
+/// The object stage's test rooms (6 x 6 x 2.8 m, one camera): three furnishings of 4-5 generated models, among
+/// them a lamp on a table, objects cut by the image border and objects hidden by others.
+pub fn stage_rooms() -> (crate::rooms::RoomSpec, Vec<Vec<Item>>) {
+    let r = crate::rooms::RoomSpec {
+        w: 6.0,
+        d: 6.0,
+        h: 2.8,
+        cam: Vec3::new(0.0, 1.6, 2.6),
+        yaw: 0.0,
+        pitch: -18.0,
+        fov: 60.0,
+    };
+    let rooms: Vec<Vec<Item>> = vec![
+        vec![
+            Item { model: "sofa_2", at: Vec3::new(0.0, 0.0, -1.6), yaw: 0.0 },
+            Item { model: "table_0", at: Vec3::new(0.3, 0.0, -0.2), yaw: 10.0 },
+            Item { model: "lamp_1", at: Vec3::new(0.6, 0.74, -0.3), yaw: 0.0 },
+            Item { model: "chair_3", at: Vec3::new(-1.9, 0.0, 0.4), yaw: 70.0 },
+        ],
+        vec![
+            Item { model: "cabinet_1", at: Vec3::new(1.2, 0.0, -2.7), yaw: 0.0 },
+            Item { model: "bookcase_0", at: Vec3::new(-1.6, 0.0, -2.75), yaw: 0.0 },
+            Item { model: "chair_0", at: Vec3::new(0.9, 0.0, -1.6), yaw: -30.0 },
+            Item { model: "table_4", at: Vec3::new(2.0, 0.0, 0.3), yaw: 45.0 },
+        ],
+        vec![
+            Item { model: "sofa_0", at: Vec3::new(-0.6, 0.0, -2.2), yaw: 15.0 },
+            Item { model: "chair_5", at: Vec3::new(-0.3, 0.0, -1.0), yaw: 200.0 },
+            Item { model: "lamp_3", at: Vec3::new(1.8, 0.0, -2.3), yaw: 0.0 },
+            Item { model: "cabinet_4", at: Vec3::new(-2.2, 0.0, -0.6), yaw: 90.0 },
+            Item { model: "bookcase_2", at: Vec3::new(1.2, 0.0, -2.75), yaw: 0.0 },
+        ],
+    ];
+    (r, rooms)
+}

@@ -12,9 +12,10 @@ use glam::Vec3;
 use psdr::db::ModelSet;
 use psdr::stages::{init_objects, ObjectInitOptions};
 use psdr_tests::furniture::{
-    first_number, furnished_room, observed_symmetry, run_refinement, write_model_set, write_refinement_inputs, Item,
+    first_number, furnished_room, observed_symmetry, run_refinement, stage_rooms, write_model_set,
+    write_refinement_inputs,
 };
-use psdr_tests::rooms::{room_scene, RoomSpec};
+use psdr_tests::rooms::room_scene;
 use psdr_tests::temp_dir;
 
 #[test]
@@ -23,28 +24,7 @@ fn furnished_rooms_are_retrieved_placed_and_refined() {
     let db_dir = dir.join("db");
     write_model_set(&db_dir);
     let db = ModelSet::from_folder(&db_dir).unwrap();
-    let r = RoomSpec { w: 6.0, d: 6.0, h: 2.8, cam: Vec3::new(0.0, 1.6, 2.6), yaw: 0.0, pitch: -18.0, fov: 60.0 };
-    let rooms: Vec<Vec<Item>> = vec![
-        vec![
-            Item { model: "sofa_2", at: Vec3::new(0.0, 0.0, -1.6), yaw: 0.0 },
-            Item { model: "table_0", at: Vec3::new(0.3, 0.0, -0.2), yaw: 10.0 },
-            Item { model: "lamp_1", at: Vec3::new(0.6, 0.74, -0.3), yaw: 0.0 },
-            Item { model: "chair_3", at: Vec3::new(-1.9, 0.0, 0.4), yaw: 70.0 },
-        ],
-        vec![
-            Item { model: "cabinet_1", at: Vec3::new(1.2, 0.0, -2.7), yaw: 0.0 },
-            Item { model: "bookcase_0", at: Vec3::new(-1.6, 0.0, -2.75), yaw: 0.0 },
-            Item { model: "chair_0", at: Vec3::new(0.9, 0.0, -1.6), yaw: -30.0 },
-            Item { model: "table_4", at: Vec3::new(2.0, 0.0, 0.3), yaw: 45.0 },
-        ],
-        vec![
-            Item { model: "sofa_0", at: Vec3::new(-0.6, 0.0, -2.2), yaw: 15.0 },
-            Item { model: "chair_5", at: Vec3::new(-0.3, 0.0, -1.0), yaw: 200.0 },
-            Item { model: "lamp_3", at: Vec3::new(1.8, 0.0, -2.3), yaw: 0.0 },
-            Item { model: "cabinet_4", at: Vec3::new(-2.2, 0.0, -0.6), yaw: 90.0 },
-            Item { model: "bookcase_2", at: Vec3::new(1.2, 0.0, -2.75), yaw: 0.0 },
-        ],
-    ];
+    let (r, rooms) = stage_rooms();
     let (iw, ih) = (160u32, 120u32);
     let (mut instances_total, mut retrieved) = (0, 0);
     let mut worst = [0.0f32; 3];

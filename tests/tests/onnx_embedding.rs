@@ -89,3 +89,62 @@ fn a_pretrained_encoder_tells_materials_apart() {
     let e = load_embedding_model(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("models/nope.onnx")).err().unwrap();
     assert!(e.to_string().contains("nope.onnx"), "{e}");
 }
+
+/// Retrieval with the encoder (`init_objects_with` and an `AppearanceCue`): two generated chairs in a room
+/// rendered by psdr, a database of the six chair variants with thumbnails. Every candidate gets the cosine
+/// similarity of the instance's crop with its thumbnail (finite, within -1..1); weighted 0, the cue changes no
+/// choice; and a model without a thumbnail gets no similarity rather than an error.
+#[test]
+fn retrieval_compares_crops_with_thumbnails() {
+    use glam::Vec3;
+    use psdr::db::{build_db, ModelSet};
+    use psdr::stages::{init_objects, init_objects_with, AppearanceCue, ObjectInitOptions};
+    use psdr_tests::furniture::{furnished_room, variant, Item};
+    use psdr_tests::rooms::{room_scene, RoomSpec};
+
+    let Some(path) = encoder() else { return };
+    let dir = psdr_tests::temp_dir("embedding-retrieval");
+    std::fs::create_dir_all(dir.join("src")).unwrap();
+    for k in 0..6 {
+        std::fs::write(dir.join(format!("src/chair_{k}.obj")), variant("chair", k)).unwrap();
+    }
+    build_db(&[dir.join("src")], &dir.join("db"), true).unwrap();
+    let mut db = ModelSet::from_folder(&dir.join("db")).unwrap();
+    assert!(db.models.iter().all(|m| m.thumbnail.as_ref().is_some_and(|t| t.is_file())));
+    db.models[5].thumbnail = None;
+    let r = RoomSpec { w: 5.0, d: 5.0, h: 2.7, cam: Vec3::new(0.0, 1.5, 2.2), yaw: 0.0, pitch: -15.0, fov: 60.0 };
+    let items = [
+        Item { model: "chair_1", at: Vec3::new(-0.6, 0.0, -0.6), yaw: 20.0 },
+        Item { model: "chair_4", at: Vec3::new(0.7, 0.0, -1.0), yaw: -30.0 },
+    ];
+    let (room, classes) = room_scene(&r, &[], false, 128, 96);
+    let (_, f, inst) = furnished_room(&room, &classes, &items, &dir.join("db"));
+    let photo = psdr::loss::Image::new(128, 96, 3, f.radiance.clone()).unwrap();
+    let mut model = load_embedding_model(&path).unwrap();
+    let opts = ObjectInitOptions::default();
+    let with = |model: &mut psdr::vision::OnnxModel, weight: f32| {
+        let cue = AppearanceCue { photo: &photo, model, weight };
+        init_objects_with(&room, &f.depth, &inst, &db, &opts, Some(cue)).0
+    };
+    let placed = with(&mut model, 0.5);
+    assert_eq!(placed.len(), 2);
+    for (p, _) in &placed {
+        for c in std::iter::once(&p.chosen).chain(&p.alternatives) {
+            match c.embedding_similarity {
+                Some(s) => assert!(s.is_finite() && (-1.0..=1.0).contains(&s), "{}: {s}", c.model),
+                None => assert_eq!(c.model, "chair_5", "only the model without a thumbnail has no similarity"),
+            }
+        }
+        eprintln!(
+            "{}: {} {:?}",
+            p.name,
+            p.chosen.model,
+            p.alternatives.iter().map(|a| (&a.model, a.embedding_similarity)).collect::<Vec<_>>()
+        );
+    }
+    let plain = init_objects(&room, &f.depth, &inst, &db, &opts).0;
+    let weightless = with(&mut model, 0.0);
+    for ((a, _), (b, _)) in plain.iter().zip(&weightless) {
+        assert_eq!((&a.chosen.model, a.chosen.yaw_deg), (&b.chosen.model, b.chosen.yaw_deg));
+    }
+}

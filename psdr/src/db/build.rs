@@ -7,6 +7,7 @@
 use super::model_set::{entry_for, ModelEntry};
 use super::sh3f::{class_of, extract_sh3f, read_sh3f};
 use crate::error::{Error, Result};
+use rayon::prelude::*;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
@@ -80,6 +81,9 @@ fn add_obj_folder(dir: &Path, report: &mut BuildReport) -> Result<()> {
     Ok(())
 }
 
+/// The catalog format `build_db` writes (2: with silhouettes); an older cached index is rebuilt.
+pub const CATALOG_VERSION: u32 = 2;
+
 /// Indexes `sources` into `out` (writing `out/catalog.json`, and with `thumbnails` a 96 px render of every
 /// model in `out/thumbs/`).
 pub fn build_db(sources: &[PathBuf], out: &Path, thumbnails: bool) -> Result<BuildReport> {
@@ -112,6 +116,18 @@ pub fn build_db(sources: &[PathBuf], out: &Path, thumbnails: bool) -> Result<Bui
             return Err(Error::io(src, "not a .sh3f file, a 3D-FUTURE folder or a folder of models"));
         }
     }
+    // Outline descriptors for every model, so retrieval can rank a large class without loading it.
+    let silhouettes: Vec<Option<Vec<super::Silhouette>>> = report
+        .indexed
+        .par_iter()
+        .map(|e| match e.silhouettes_or_render() {
+            Ok(s) => Some(s),
+            Err(err) => {
+                eprintln!("  {}: no silhouettes ({err})", e.name);
+                None
+            }
+        })
+        .collect();
     let mut thumbs: Vec<Option<String>> = vec![None; report.indexed.len()];
     if thumbnails {
         let dir = out.join("thumbs");
@@ -131,17 +147,18 @@ pub fn build_db(sources: &[PathBuf], out: &Path, thumbnails: bool) -> Result<Bui
         .indexed
         .iter()
         .zip(&thumbs)
-        .map(|(e, thumb)| {
+        .zip(&silhouettes)
+        .map(|((e, thumb), sil)| {
             json!({
                 "file": relative(out, &e.path), "name": e.name, "category": e.category, "licence": e.licence,
                 "rotation": e.rotation, "scale": e.scale, "min": e.min, "max": e.max, "triangles": e.triangles,
-                "thumbnail": thumb,
+                "thumbnail": thumb, "silhouettes": sil,
             })
         })
         .collect();
     let skipped: Vec<serde_json::Value> =
         report.skipped.iter().map(|(s, m, r)| json!({"source": s, "model": m, "reason": r})).collect();
-    let catalog = json!({ "format": "psdr-models", "version": 1, "models": models, "skipped": skipped });
+    let catalog = json!({ "format": "psdr-models", "version": CATALOG_VERSION, "models": models, "skipped": skipped });
     let path = out.join("catalog.json");
     let text = serde_json::to_string_pretty(&catalog).map_err(|e| Error::io(&path, e))?;
     crate::output::write_atomically(&path, |tmp| std::fs::write(tmp, &text).map_err(|e| Error::io(tmp, e)))?;

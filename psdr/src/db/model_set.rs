@@ -4,6 +4,7 @@
 //! optional) and scaled to `size` in metres (optional: else as stored); without one, every OBJ of the folder,
 //! its category from the file name's leading word (`chair_2.obj` is a chair) and the licence "unknown".
 
+use super::silhouette::{model_silhouettes, Silhouette};
 use crate::error::{Error, Result};
 use crate::scene::{load_obj, MeshPart};
 use crate::vision::canonical_class;
@@ -26,6 +27,12 @@ pub struct ModelEntry {
     pub min: [f32; 3],
     pub max: [f32; 3],
     pub triangles: usize,
+    /// Outline descriptors (`silhouette::model_silhouettes`), when the catalog has them.
+    #[serde(default)]
+    pub silhouettes: Option<Vec<Silhouette>>,
+    /// A render of the model (`psdr db build` writes one), when there is one.
+    #[serde(default)]
+    pub thumbnail: Option<PathBuf>,
 }
 
 impl ModelEntry {
@@ -61,6 +68,14 @@ impl ModelEntry {
         }
         Ok(parts)
     }
+
+    /// The catalog's outline descriptors, else rendered now.
+    pub fn silhouettes_or_render(&self) -> Result<Vec<Silhouette>> {
+        match &self.silhouettes {
+            Some(s) => Ok(s.clone()),
+            None => model_silhouettes(&self.load_parts()?),
+        }
+    }
 }
 
 /// Reads an OBJ and makes its entry: bounds after `rotation`, scaled so they span `size` where given.
@@ -83,6 +98,8 @@ pub fn entry_for(
         min: [0.0; 3],
         max: [0.0; 3],
         triangles: mesh.parts.iter().map(|p| p.indices.len()).sum(),
+        silhouettes: None,
+        thumbnail: None,
     };
     let bounds = |e: &ModelEntry| {
         mesh.parts.iter().flat_map(|p| &p.positions).fold(
@@ -124,6 +141,8 @@ struct CatalogEntry {
     min: Option<[f32; 3]>,
     max: Option<[f32; 3]>,
     triangles: Option<usize>,
+    silhouettes: Option<Vec<Silhouette>>,
+    thumbnail: Option<String>,
 }
 
 /// The models of a folder; `skipped` says which files could not be read and why.
@@ -162,6 +181,8 @@ impl ModelSet {
                             min,
                             max,
                             triangles,
+                            silhouettes: c.silhouettes,
+                            thumbnail: c.thumbnail.map(|t| dir.join(t)),
                         };
                         set.models.push(e);
                     } else {

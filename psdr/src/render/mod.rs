@@ -8,6 +8,7 @@ pub mod frame;
 pub mod layout;
 pub mod light;
 pub mod path_trace;
+pub mod primary_hits;
 pub mod sampler;
 pub mod scene_data;
 pub mod shading;

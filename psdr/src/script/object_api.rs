@@ -1,5 +1,6 @@
 //! The object stage in scripts: `objects_init(scene, obs, #{db, ...})` places a retrieved model for every
-//! furniture instance in the scene (in place) and returns what it placed, `obs.instance_mask(id)` gives an
+//! furniture instance in the scene (in place; `embedding: PATH` adds an ONNX image encoder comparing the
+//! photo's crops with the models' thumbnails) and returns what it placed, `obs.instance_mask(id)` gives an
 //! instance's mask as a loss target. Placements, alternatives and skipped instances go into result.json.
 
 use super::engine::{rhai_err, Rr, RunRef};
@@ -9,7 +10,7 @@ use crate::db::ModelSet;
 use crate::error::Error;
 use crate::loss::{Image, Tensor};
 use crate::scene::Material;
-use crate::stages::{init_objects, ObjectInitOptions};
+use crate::stages::{init_objects_with, AppearanceCue, ObjectInitOptions};
 use glam::Vec3;
 use rhai::{Array, Dynamic, Engine, Map};
 use std::path::PathBuf;
@@ -17,11 +18,13 @@ use std::path::PathBuf;
 fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &Map) -> crate::Result<Array> {
     let mut o = ObjectInitOptions::default();
     let mut db: Option<PathBuf> = None;
+    let (mut encoder, mut embedding_weight): (Option<PathBuf>, f32) = (None, 0.5);
     for (k, v) in opts {
-        if k == "db" {
-            db = Some(PathBuf::from(
-                v.clone().into_string().map_err(|_| Error::Invalid("objects_init: 'db' must be a path".into()))?,
-            ));
+        if k == "db" || k == "embedding" {
+            let path = PathBuf::from(
+                v.clone().into_string().map_err(|_| Error::Invalid(format!("objects_init: '{k}' must be a path")))?,
+            );
+            *(if k == "db" { &mut db } else { &mut encoder }) = Some(path);
             continue;
         }
         let num = v
@@ -38,10 +41,12 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
             "max_candidates" => o.max_candidates = num.max(1.0) as usize,
             "scale_weight" => o.scale_weight = num as f32,
             "finalists" => o.finalists = num.max(1.0) as usize,
+            "silhouette_weight" => o.silhouette_weight = num.max(0.0) as f32,
+            "embedding_weight" => embedding_weight = num.max(0.0) as f32,
             other => {
                 return Err(Error::Invalid(format!(
                     "objects_init: unknown option '{other}' (db, min_pixels, erode, yaws, sweep_width, top_k, depth_weight, max_candidates, \
-                     scale_weight, finalists)"
+                     scale_weight, finalists, silhouette_weight, embedding, embedding_weight)"
                 )))
             }
         }
@@ -50,7 +55,10 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
     let models = ModelSet::from_folder(&db)?;
     let depth = obs.0.require_depth()?;
     let inst = obs.0.require_instances()?;
-    let (placed, skipped) = init_objects(&scene.0, &depth.image.data, inst, &models, &o);
+    // With an image encoder, crops of the photo are compared with the models' thumbnails.
+    let mut model = encoder.as_deref().map(crate::vision::load_embedding_model).transpose()?;
+    let cue = model.as_mut().map(|m| AppearanceCue { photo: &obs.0.photo, model: m, weight: embedding_weight });
+    let (placed, skipped) = init_objects_with(&scene.0, &depth.image.data, inst, &models, &o, cue);
     // One material per placed object, so later stages can give each its own.
     let mut out = Array::new();
     let mut records = vec![];
@@ -70,6 +78,7 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
     }
     let summary = serde_json::json!({
         "db": db,
+        "embedding": encoder,
         "models_indexed": models.models.len(),
         "models_skipped": models.skipped.iter().map(|(p, why)| serde_json::json!({"file": p, "reason": why})).collect::<Vec<_>>(),
         "placed": records,

@@ -15,7 +15,9 @@ pub use depth_calibration::{calibrate_relative_depth, DepthCalibration};
 pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use light_init::{init_lights, LightInitOptions};
 pub use material_search::{library_textures, search_materials, transformed_view, LibraryTexture, MaterialMatch};
-pub use object_init::{init_objects, Candidate, ObjectInitOptions, ObjectPlacement, SkippedInstance};
+pub use object_init::{
+    init_objects, init_objects_with, AppearanceCue, Candidate, ObjectInitOptions, ObjectPlacement, SkippedInstance,
+};
 pub use plane_fit::{fit_plane, fit_plane_in_depth, ransac_plane, symmetric_eigen, Plane};
 pub use point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};
 pub use room_init::{init_room, RoomEstimate, RoomInitOptions};

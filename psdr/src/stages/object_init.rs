@@ -7,16 +7,14 @@
 //! gets a box of the observed size, and says so.
 
 use super::point_cloud::{erode, surface_points, Intrinsics};
-use crate::db::{ModelEntry, ModelSet};
-use crate::render::bvh::trace_closest;
-use crate::render::camera::camera_ray;
-use crate::render::layout::NONE;
+use crate::db::{best_view_iou, ModelEntry, ModelSet, Silhouette};
+use crate::loss::Image;
+use crate::render::primary_hits::primary_hits;
 use crate::render::scene_data::camera_gpu;
 use crate::render::SceneData;
 use crate::scene::{box_mesh, Camera, Material, MeshPart, Object, Pose, RenderSettings, Scene};
-use crate::vision::{ClassKind, Instances};
+use crate::vision::{cosine, embed, load_photo, ClassKind, Instances, OnnxModel};
 use glam::{Quat, Vec3};
-use rayon::prelude::*;
 use std::path::PathBuf;
 
 /// Knobs of the initialisation.
@@ -39,6 +37,9 @@ pub struct ObjectInitOptions {
     pub scale_weight: f32,
     /// Leaders of the sweep compared again at twice its resolution.
     pub finalists: usize,
+    /// Weight of the outline mismatch (1 - silhouette IoU) against the size misfit when a class has more
+    /// than `max_candidates` models.
+    pub silhouette_weight: f32,
 }
 
 impl Default for ObjectInitOptions {
@@ -53,6 +54,7 @@ impl Default for ObjectInitOptions {
             max_candidates: 8,
             scale_weight: 1.0,
             finalists: 3,
+            silhouette_weight: 1.0,
         }
     }
 }
@@ -66,6 +68,11 @@ pub struct Candidate {
     pub yaw_deg: f32,
     pub iou: f32,
     pub score: f32,
+    /// The best IoU of the instance's outline with the model's silhouette views, where outlines ranked the
+    /// class.
+    pub outline_iou: Option<f32>,
+    /// Cosine similarity of the instance's crop and the model's thumbnail under the appearance encoder.
+    pub embedding_similarity: Option<f32>,
 }
 
 /// One instance's placement: the scene object's name, its pose, the chosen model and the alternatives.
@@ -189,7 +196,7 @@ impl PoseRenderer {
         Some(PoseRenderer { camera: cam, data })
     }
 
-    /// Object ids (0 on the model, `NONE` elsewhere) and depth (world units, 0 on a miss) with the model at
+    /// Object ids (0 on the model, `render::layout::NONE` elsewhere) and depth (world units, 0 on a miss) with the model at
     /// `pose` (uniform scale).
     fn render(&mut self, pose: Pose) -> Option<(Vec<u32>, Vec<f32>)> {
         let (inv, s) = (pose.rotation.inverse(), pose.scale.x.max(1e-6));
@@ -201,20 +208,7 @@ impl PoseRenderer {
         if !local.origin.is_finite() {
             return None;
         }
-        let cam = camera_gpu(&local);
-        let (w, h) = (cam.width, cam.height);
-        let (origin, forward) = (Vec3::from(cam.origin), Vec3::from(cam.forward));
-        let d = &self.data;
-        let (ids, depth): (Vec<u32>, Vec<f32>) = (0..w * h)
-            .into_par_iter()
-            .map(|p| {
-                let dir = camera_ray(&cam, (p % w) as f32 + 0.5, (p / w) as f32 + 0.5);
-                match trace_closest(&d.nodes, &d.triangles, origin, dir, f32::INFINITY) {
-                    Some(hit) => (0, hit.t * dir.dot(forward) * s),
-                    None => (NONE, 0.0),
-                }
-            })
-            .unzip();
+        let (ids, depth) = primary_hits(&self.data, &camera_gpu(&local), s);
         Some((ids, depth))
     }
 }
@@ -278,6 +272,40 @@ fn align(cam: &Camera, renderer: &mut PoseRenderer, mut pose: Pose, target: &Swe
         pose.translation += Vec3::new(step.x, 0.0, step.z);
     }
     pose
+}
+
+/// The fraction of instance `id`'s outline pixels that border another furniture or object instance nearer
+/// the camera: how much of its silhouette others may hide.
+fn hidden_outline(inst: &Instances, depth: &[f32], id: u16) -> f32 {
+    let (w, h) = (inst.width, inst.height);
+    let furniture = |v: u16| inst.instances.iter().any(|i| i.id == v && i.kind != ClassKind::Structure);
+    let (mut outline, mut hidden) = (0usize, 0usize);
+    for y in 0..h {
+        for x in 0..w {
+            let p = y * w + x;
+            if inst.ids[p] != id {
+                continue;
+            }
+            let neighbours = [
+                (x > 0).then(|| p - 1),
+                (x + 1 < w).then(|| p + 1),
+                (y > 0).then(|| p - w),
+                (y + 1 < h).then(|| p + w),
+            ];
+            let outside: Vec<usize> = neighbours.into_iter().flatten().filter(|&q| inst.ids[q] != id).collect();
+            if outside.is_empty() {
+                continue;
+            }
+            outline += 1;
+            let nearer = |q: usize| depth[q] > 0.0 && depth[q] < depth[p] && furniture(inst.ids[q]);
+            hidden += outside.into_iter().any(nearer) as usize;
+        }
+    }
+    if outline == 0 {
+        0.0
+    } else {
+        hidden as f32 / outline as f32
+    }
 }
 
 fn pose_at(translation: Vec3, yaw_deg: f32, scale: f32) -> Pose {
@@ -377,6 +405,55 @@ pub fn init_objects(
     models: &ModelSet,
     opts: &ObjectInitOptions,
 ) -> (Vec<(ObjectPlacement, Object)>, Vec<SkippedInstance>) {
+    init_objects_with(scene, depth, inst, models, opts, None)
+}
+
+/// An image encoder (a CLIP-style embedding model) that compares each instance's crop of the photo with the
+/// candidates' thumbnails, as PSDR-Room retrieves with CLIP: `weight` x cosine similarity is added to a
+/// candidate's rank before the sweep.
+pub struct AppearanceCue<'a> {
+    /// The photo, linear RGB, at the instances' size.
+    pub photo: &'a Image,
+    pub model: &'a mut OnnxModel,
+    pub weight: f32,
+}
+
+/// The instance's pixels of `photo`, cropped to their bounds, everything else white (as a thumbnail's
+/// ground).
+fn instance_crop(photo: &Image, inst: &Instances, id: u16) -> Option<Image> {
+    let (w, h) = (inst.width, inst.height);
+    if photo.width != w || photo.height != h || photo.channels != 3 {
+        return None;
+    }
+    let (mut x0, mut y0, mut x1, mut y1) = (w, h, 0, 0);
+    for p in (0..w * h).filter(|&p| inst.ids[p] == id) {
+        (x0, y0, x1, y1) = (x0.min(p % w), y0.min(p / w), x1.max(p % w), y1.max(p / w));
+    }
+    if x0 > x1 {
+        return None;
+    }
+    let (cw, ch) = (x1 - x0 + 1, y1 - y0 + 1);
+    let data = (0..cw * ch)
+        .flat_map(|q| {
+            let p = (y0 + q / cw) * w + x0 + q % cw;
+            let inside = inst.ids[p] == id;
+            [0, 1, 2].map(|c| if inside { photo.data[p * 3 + c] } else { 1.0 })
+        })
+        .collect();
+    Image::new(cw, ch, 3, data).ok()
+}
+
+/// `init_objects`, with the candidates of each instance also ranked by `appearance` when given.
+pub fn init_objects_with(
+    scene: &Scene,
+    depth: &[f32],
+    inst: &Instances,
+    models: &ModelSet,
+    opts: &ObjectInitOptions,
+    mut appearance: Option<AppearanceCue>,
+) -> (Vec<(ObjectPlacement, Object)>, Vec<SkippedInstance>) {
+    // Thumbnail embeddings, computed once per model.
+    let mut thumbnail_embeddings: std::collections::HashMap<PathBuf, Option<Vec<f32>>> = Default::default();
     let cam = &scene.camera;
     let (w, h) = (inst.width, inst.height);
     let k = Intrinsics::new(w, h, cam.fov_y_deg);
@@ -452,17 +529,59 @@ pub fn init_objects(
         let target = sweep_target(inst, depth, i.id, sw as usize, sh as usize);
         // Candidates: the class's models, else a box of the observed size.
         // A large class is cut to the models whose real size is closest to what the points show (height, and
-        // the wider footprint side, which the visible points underestimate: weighted half).
+        // the wider footprint side, which the visible points underestimate: weighted half) and whose outline
+        // best matches the instance's (where the mask shows the whole object: not cut by the border, and as
+        // much less as other objects hide of its outline).
+        // Cut by the image border, the points' top is only a lower bound of the height (a chair whose back is
+        // out of frame shows its seat): a model taller than that is tried at its real size too.
+        let cut = touches_border(inst, i.id);
         let mut entries: Vec<&ModelEntry> = models.of_class(&i.class);
         let misfit = |e: &ModelEntry| {
             let s = e.size();
             (s.y / top).ln().abs() + 0.5 * (s.x.max(s.z) / footprint.x.max(footprint.z)).ln().abs()
         };
-        entries.sort_by(|a, b| misfit(a).total_cmp(&misfit(b)));
-        entries.truncate(opts.max_candidates.max(1));
-        // Cut by the image border, the points' top is only a lower bound of the height (a chair whose back is
-        // out of frame shows its seat): a model taller than that is tried at its real size too.
-        let cut = touches_border(inst, i.id);
+        let outline_weight = opts.silhouette_weight * (1.0 - hidden_outline(inst, depth, i.id));
+        let outline = if entries.len() > opts.max_candidates && !cut && outline_weight > 0.0 {
+            let mask: Vec<bool> = inst.ids.iter().map(|&v| v == i.id).collect();
+            Silhouette::from_mask(&mask, w, h)
+        } else {
+            None
+        };
+        // The crop's embedding against each thumbnail's (a model without a thumbnail gets none).
+        let similarity: Vec<Option<f32>> = match appearance.as_mut() {
+            Some(a) => {
+                let crop = instance_crop(a.photo, inst, i.id).and_then(|c| embed(a.model, &c).ok());
+                entries
+                    .iter()
+                    .map(|e| {
+                        let crop = crop.as_ref()?;
+                        let thumb = e.thumbnail.as_ref()?;
+                        let t = thumbnail_embeddings
+                            .entry(thumb.clone())
+                            .or_insert_with(|| load_photo(thumb).ok().and_then(|img| embed(a.model, &img).ok()));
+                        t.as_ref().map(|t| cosine(crop, t))
+                    })
+                    .collect()
+            }
+            None => vec![None; entries.len()],
+        };
+        let appearance_weight = appearance.as_ref().map_or(0.0, |a| a.weight);
+        let rank: Vec<(f32, Option<f32>)> = entries
+            .iter()
+            .zip(&similarity)
+            .map(|(e, sim)| {
+                let iou = outline.and_then(|o| e.silhouettes_or_render().ok().map(|v| best_view_iou(&o, &v)));
+                let r =
+                    misfit(e) + outline_weight * (1.0 - iou.unwrap_or(0.0)) - appearance_weight * sim.unwrap_or(0.0);
+                (r, iou)
+            })
+            .collect();
+        let mut order: Vec<usize> = (0..entries.len()).collect();
+        order.sort_by(|&a, &b| rank[a].0.total_cmp(&rank[b].0));
+        order.truncate(opts.max_candidates.max(1));
+        let outline_ious: Vec<Option<f32>> = order.iter().map(|&k| rank[k].1).collect();
+        let similarities: Vec<Option<f32>> = order.iter().map(|&k| similarity[k]).collect();
+        entries = order.iter().map(|&k| entries[k]).collect();
         let mut options: Vec<(Candidate, Vec<MeshPart>, f32)> = vec![];
         if entries.is_empty() {
             let mut b = box_mesh(footprint, false);
@@ -474,10 +593,12 @@ pub fn init_objects(
                 yaw_deg: 0.0,
                 iou: 0.0,
                 score: f32::MIN,
+                outline_iou: None,
+                embedding_similarity: None,
             };
             options.push((c, vec![b], 1.0));
         }
-        for e in entries {
+        for ((e, outline_iou), embedding_similarity) in entries.into_iter().zip(outline_ious).zip(similarities) {
             match e.load_parts() {
                 Ok(parts) => {
                     let c = Candidate {
@@ -487,6 +608,8 @@ pub fn init_objects(
                         yaw_deg: 0.0,
                         iou: 0.0,
                         score: f32::MIN,
+                        outline_iou,
+                        embedding_similarity,
                     };
                     let fitted = (top / e.size().y.max(1e-3)).clamp(0.3, 3.0);
                     if cut && fitted < 0.95 {
