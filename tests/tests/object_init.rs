@@ -151,3 +151,50 @@ fn poor_observations_give_stated_behaviour() {
         assert!(o.parts.iter().flat_map(|q| &q.positions).all(|v| v.is_finite()));
     }
 }
+
+/// A segmenter's split: a sofa behind a bookcase, its instance cut in two at the bookcase (no pixel of one
+/// piece touches the other). The pieces are merged into one instance, the merge is logged among the skipped
+/// instances, the sofa gets one model (the true one) and the refinement target covers both pieces.
+#[test]
+fn split_pieces_of_one_object_are_merged() {
+    use psdr_tests::furniture::{stage_rooms, write_model_set};
+    let dir = temp_dir("object-merge");
+    write_model_set(&dir);
+    let db = ModelSet::from_folder(&dir).unwrap();
+    let (r, _) = stage_rooms();
+    let items = [
+        Item { model: "sofa_2", at: Vec3::new(0.0, 0.0, -1.6), yaw: 0.0 },
+        Item { model: "bookcase_1", at: Vec3::new(0.0, 0.0, -0.4), yaw: 0.0 },
+    ];
+    let (room, classes) = room_scene(&r, &[], false, 160, 120);
+    let (truth, f, mut inst) = furnished_room(&room, &classes, &items, &dir);
+    let sofa = (truth.object_index("sofa_2").unwrap() + 1) as u16;
+    let shelf = (truth.object_index("bookcase_1").unwrap() + 1) as u16;
+    // The piece right of the bookcase's centre becomes a new instance.
+    let cols: Vec<usize> = (0..inst.ids.len()).filter(|&p| inst.ids[p] == shelf).map(|p| p % inst.width).collect();
+    let middle = (cols.iter().min().unwrap() + cols.iter().max().unwrap()) / 2;
+    let piece = 99u16;
+    let moved = (0..inst.ids.len()).filter(|&p| inst.ids[p] == sofa && p % inst.width > middle).count();
+    for p in 0..inst.ids.len() {
+        if inst.ids[p] == sofa && p % inst.width > middle {
+            inst.ids[p] = piece;
+        }
+    }
+    let mut extra = inst.instances.iter().find(|i| i.id == sofa).unwrap().clone();
+    (extra.id, extra.pixels) = (piece, moved);
+    inst.instances.iter_mut().find(|i| i.id == sofa).unwrap().pixels -= moved;
+    inst.instances.push(extra);
+    let (placed, skipped) = init_objects(&room, &f.depth, &inst, &db, &ObjectInitOptions::default());
+    let sofas: Vec<_> = placed.iter().filter(|(p, _)| p.class == "sofa").map(|(p, _)| p).collect();
+    assert_eq!(sofas.len(), 1, "one sofa: {sofas:?}");
+    let s = sofas[0];
+    assert!(s.merged.len() == 1 && [sofa, piece].contains(&s.merged[0]), "{s:?}");
+    assert_eq!(s.chosen.model, "sofa_2");
+    let log = skipped.iter().find(|k| k.instance == s.merged[0]).expect("the merge is logged");
+    assert!(log.reason.contains("merged into"), "{}", log.reason);
+    eprintln!("{}", log.reason);
+    // Not merging leaves two half sofas.
+    let opts = ObjectInitOptions { merge_bridges: 0, ..Default::default() };
+    let (apart, _) = init_objects(&room, &f.depth, &inst, &db, &opts);
+    assert_eq!(apart.iter().filter(|(p, _)| p.class == "sofa").count(), 2);
+}

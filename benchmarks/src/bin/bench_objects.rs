@@ -15,7 +15,7 @@ use psdr::report::chart::{grid, Point, Series, XyChart};
 use psdr::scene::Object;
 use psdr::stages::{init_objects, ObjectInitOptions, ObjectPlacement};
 use psdr_tests::furniture::{
-    first_number, furnished_room, run_refinement, symmetry, write_model_set, write_refinement_inputs, Item,
+    first_number, furnished_room, observed_symmetry, run_refinement, write_model_set, write_refinement_inputs, Item,
 };
 use psdr_tests::rooms::{room_scene, RoomSpec};
 use std::path::Path;
@@ -64,8 +64,7 @@ fn main() -> anyhow::Result<()> {
         let names = write_refinement_inputs(&sdir, &room, &placed, &inst, &f);
         let errors = |poses: &serde_json::Value, placed: &[(ObjectPlacement, Object)]| -> (usize, [f32; 3], f32) {
             let (mut retrieved, mut worst, mut centres) = (0, [0.0f32; 3], vec![]);
-            for it in items.iter() {
-                let class = it.class();
+            for (k, it) in items.iter().enumerate() {
                 let Some(o) = truth.object_index(it.model) else { continue };
                 let Some((p, _)) = placed.iter().find(|(p, _)| p.instance as usize == o + 1) else { continue };
                 retrieved += usize::from(p.chosen.model == it.model);
@@ -74,7 +73,7 @@ fn main() -> anyhow::Result<()> {
                     q["t"].as_array().map_or(vec![], |a| a.iter().map(|v| v.as_f64().unwrap_or(0.0) as f32).collect());
                 let centre = if t.len() == 3 { Vec3::new(t[0], t[1], t[2]) } else { Vec3::from(p.translation) };
                 let err = (centre - it.at).length() / (it.at - r.cam).length();
-                let sym = symmetry(class);
+                let sym = observed_symmetry(&room, &classes, items, k, &db_dir, &f);
                 let yaw = first_number(&q["yaw"]).to_degrees();
                 let yaw_err = (((yaw - it.yaw).rem_euclid(sym) + sym / 2.0).rem_euclid(sym) - sym / 2.0).abs();
                 let chosen = db.models.iter().find(|m| m.name == p.chosen.model);
@@ -83,6 +82,9 @@ fn main() -> anyhow::Result<()> {
                     (Some(c), Some(tm)) => (c.size().y * first_number(&q["scale"]) / tm.size().y - 1.0).abs(),
                     _ => f32::NAN,
                 };
+                if yaw_err > 10.0 {
+                    eprintln!("  {}: yaw {yaw:.1} against {} (modulo {sym})", it.model, it.yaw);
+                }
                 worst = [worst[0].max(err), worst[1].max(yaw_err), worst[2].max(size_err)];
                 centres.push(err);
             }

@@ -1,6 +1,7 @@
 //! The object stage in scripts: `objects_init(scene, obs, #{db, ...})` places a retrieved model for every
 //! furniture instance in the scene (in place; `embedding: PATH` adds an ONNX image encoder comparing the
-//! photo's crops with the models' thumbnails) and returns what it placed, `obs.instance_mask(id)` gives an
+//! photo's crops with the models' thumbnails) and returns what it placed (name, instance, class, model, iou,
+//! mask: the instance's with pieces merged into it, merged: their ids), `obs.instance_mask(id)` gives an
 //! instance's mask as a loss target. Placements, alternatives and skipped instances go into result.json.
 
 use super::engine::{rhai_err, Rr, RunRef};
@@ -43,10 +44,13 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
             "finalists" => o.finalists = num.max(1.0) as usize,
             "silhouette_weight" => o.silhouette_weight = num.max(0.0) as f32,
             "embedding_weight" => embedding_weight = num.max(0.0) as f32,
+            "merge_bridges" => o.merge_bridges = num.max(0.0) as usize,
+            "merge_depth_tolerance" => o.merge_depth_tolerance = num.max(0.0) as f32,
             other => {
                 return Err(Error::Invalid(format!(
                     "objects_init: unknown option '{other}' (db, min_pixels, erode, yaws, sweep_width, top_k, depth_weight, max_candidates, \
-                     scale_weight, finalists, silhouette_weight, embedding, embedding_weight)"
+                     scale_weight, finalists, silhouette_weight, embedding, embedding_weight, merge_bridges, \
+                     merge_depth_tolerance)"
                 )))
             }
         }
@@ -73,6 +77,14 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
         entry.insert("class".into(), Dynamic::from(p.class.clone()));
         entry.insert("model".into(), Dynamic::from(p.chosen.model.clone()));
         entry.insert("iou".into(), Dynamic::from(p.chosen.iou as f64));
+        // The instance's mask with any pieces merged into it, as the refinement's target.
+        let pieces: Vec<u16> = std::iter::once(p.instance).chain(p.merged.iter().copied()).collect();
+        let mask: Vec<f32> = inst.ids.iter().map(|v| pieces.contains(v) as u32 as f32).collect();
+        entry.insert("mask".into(), Dynamic::from(Tensor::constant(Image::new(inst.width, inst.height, 1, mask)?)));
+        entry.insert(
+            "merged".into(),
+            Dynamic::from(p.merged.iter().map(|&m| Dynamic::from(m as i64)).collect::<Array>()),
+        );
         out.push(Dynamic::from(entry));
         records.push(p);
     }

@@ -1,7 +1,11 @@
-//! Pipeline stages (PSDR-Room's Method): so far the room stage's initialisation from depth and segmentation
-//! (`room_init`), its geometry (`point_cloud`, `plane_fit`) and the room as a scene (`room_scene`).
+//! Pipeline stages (PSDR-Room's Method), the parts scripts call: the room stage's initialisation from depth and
+//! segmentation (`room_init`, `depth_calibration`, geometry in `point_cloud` and `plane_fit`) and the room as a
+//! scene (`room_scene`); the object stage's merging of split instances (`instance_merge`) and retrieval and
+//! placement (`object_init`); the light stage's initial lights (`light_init`) and radiance fit (`light_fit`);
+//! and the material search over the procedural library (`material_search`).
 
 mod depth_calibration;
+mod instance_merge;
 mod light_fit;
 mod light_init;
 mod material_search;
@@ -12,6 +16,7 @@ mod room_init;
 mod room_scene;
 
 pub use depth_calibration::{calibrate_relative_depth, DepthCalibration};
+pub use instance_merge::{merge_split_instances, MergedInstance};
 pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use light_init::{init_lights, LightInitOptions};
 pub use material_search::{library_textures, search_materials, transformed_view, LibraryTexture, MaterialMatch};

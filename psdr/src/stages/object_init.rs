@@ -6,6 +6,7 @@
 //! misfit; the best (model, yaw) wins and the runners-up are kept so a user can swap. A class without models
 //! gets a box of the observed size, and says so.
 
+use super::instance_merge::merge_split_instances;
 use super::point_cloud::{erode, surface_points, Intrinsics};
 use crate::db::{best_view_iou, ModelEntry, ModelSet, Silhouette};
 use crate::loss::Image;
@@ -40,6 +41,14 @@ pub struct ObjectInitOptions {
     /// Weight of the outline mismatch (1 - silhouette IoU) against the size misfit when a class has more
     /// than `max_candidates` models.
     pub silhouette_weight: f32,
+    /// Split pieces of one object are merged when this many rows or columns cross from one to the other
+    /// through a single nearer instance (0: never merge; `instance_merge`).
+    pub merge_bridges: usize,
+    /// ... and the depths on both sides of the occluder agree within this fraction.
+    pub merge_depth_tolerance: f32,
+    /// Poses scoring within this of the best are told apart by the wall prior: an object standing against a
+    /// wall turns its back to it (a cabinet turned round looks the same but for a handle under a pixel).
+    pub wall_tie: f32,
 }
 
 impl Default for ObjectInitOptions {
@@ -55,6 +64,9 @@ impl Default for ObjectInitOptions {
             scale_weight: 1.0,
             finalists: 3,
             silhouette_weight: 1.0,
+            merge_bridges: 3,
+            merge_depth_tolerance: 0.1,
+            wall_tie: 0.02,
         }
     }
 }
@@ -89,6 +101,10 @@ pub struct ObjectPlacement {
     pub points: usize,
     /// "floor", or "raised" (its lowest points are above the floor: on another object, a wall, hanging).
     pub support: String,
+    /// Instances merged into this one (split pieces of the object); its mask is theirs and `instance`'s.
+    pub merged: Vec<u16>,
+    /// The wall it stands with its back to (within 50 cm), if any.
+    pub against_wall: Option<String>,
 }
 
 /// An instance that got no object, and why.
@@ -308,6 +324,71 @@ fn hidden_outline(inst: &Instances, depth: &[f32], id: u16) -> f32 {
     }
 }
 
+/// A wall of the room: a point on it, its normal into the room, its name.
+struct Wall {
+    point: Vec3,
+    normal: Vec3,
+    name: String,
+}
+
+/// The scene's walls: objects named `wall*` whose surface stands upright (a rectangle facing +z, turned).
+fn walls_of(scene: &Scene) -> Vec<Wall> {
+    scene
+        .objects
+        .iter()
+        .filter(|o| o.name.starts_with("wall"))
+        .map(|o| Wall { point: o.pose.translation, normal: o.pose.rotation * Vec3::Z, name: o.name.clone() })
+        .filter(|w| w.normal.y.abs() < 0.1)
+        .collect()
+}
+
+/// How far a model's back may stand from a wall and still count as turned to it, metres (furniture along a
+/// wall keeps a skirting board's or a radiator's distance, or a walkway's).
+const AGAINST_WALL: f32 = 0.5;
+
+/// The nearest wall within `AGAINST_WALL` of the centre's footprint edge `reach` (half the model's depth).
+fn wall_behind(walls: &[Wall], centre: Vec3, reach: f32) -> Option<&Wall> {
+    walls
+        .iter()
+        .map(|w| (w, (centre - w.point).dot(w.normal) - reach))
+        .filter(|(_, gap)| (-0.1..AGAINST_WALL).contains(gap))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(w, _)| w)
+}
+
+/// The model's back as it stands at `yaw` degrees (its local -z).
+fn back(yaw_deg: f32) -> Vec3 {
+    Quat::from_rotation_y(yaw_deg.to_radians()) * -Vec3::Z
+}
+
+/// The best of `found` (yaw, score, iou, translation); among poses within `tie` of it, one whose back faces
+/// a wall it stands against (the model's half depth `reach` from its centre), if any.
+fn back_to_the_wall(
+    found: &[(f32, f32, f32, Vec3)],
+    walls: &[Wall],
+    reach: f32,
+    tie: f32,
+) -> Option<(f32, f32, f32, Vec3)> {
+    let best = *found.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let facing = |f: &(f32, f32, f32, Vec3)| wall_behind(walls, f.3, reach).map_or(0.0, |w| back(f.0).dot(-w.normal));
+    let backed = found
+        .iter()
+        .filter(|f| f.1 >= best.1 - tie && facing(f) > 0.7)
+        .max_by(|a, b| facing(a).total_cmp(&facing(b)).then(a.1.total_cmp(&b.1)));
+    Some(*backed.unwrap_or(&best))
+}
+
+/// Half the model's extent along its local z (front to back).
+fn half_depth(parts: &[MeshPart]) -> f32 {
+    let (lo, hi) =
+        parts.iter().flat_map(|p| &p.positions).fold((f32::MAX, f32::MIN), |(lo, hi), v| (lo.min(v.z), hi.max(v.z)));
+    if lo <= hi {
+        (hi - lo) / 2.0
+    } else {
+        0.0
+    }
+}
+
 fn pose_at(translation: Vec3, yaw_deg: f32, scale: f32) -> Pose {
     Pose { translation, rotation: Quat::from_rotation_y(yaw_deg.to_radians()), scale: Vec3::splat(scale) }
 }
@@ -319,19 +400,21 @@ fn touches_border(inst: &Instances, id: u16) -> bool {
         || (0..h).any(|y| inst.ids[y * w] == id || inst.ids[y * w + w - 1] == id)
 }
 
-/// Up to `n` of the sweep's (yaw, place, score) starts, best first, no two closer than `apart` degrees and
-/// none a symmetric twin of another (a table turned by 180 degrees: the same score at the same place).
+/// Up to `n` of the sweep's (yaw, place, score) starts, best first, no two closer than `apart` degrees; a
+/// symmetric twin of a kept start (the same score at the same place: a cabinet turned round whose handle the
+/// sweep cannot resolve) is kept too without counting, so the wall prior can choose between them.
 fn distinct_yaws(starts: &[(f32, Vec3, f32)], n: usize, apart: f32) -> Vec<(f32, Vec3, f32)> {
     let mut sorted = starts.to_vec();
     sorted.sort_by(|a, b| b.2.total_cmp(&a.2));
-    let mut kept: Vec<(f32, Vec3, f32)> = vec![];
+    let (mut kept, mut counted): (Vec<(f32, Vec3, f32)>, usize) = (vec![], 0);
     for s in sorted {
-        let far = |k: &(f32, Vec3, f32)| {
-            let twin = (s.2 - k.2).abs() < 1e-4 && s.1.distance(k.1) < 1e-3;
-            ((s.0 - k.0).rem_euclid(360.0) - 180.0).abs() < 180.0 - apart && !twin
-        };
-        if kept.len() < n && kept.iter().all(far) {
+        let twin = |k: &(f32, Vec3, f32)| (s.2 - k.2).abs() < 1e-4 && s.1.distance(k.1) < 1e-3;
+        let far = |k: &(f32, Vec3, f32)| ((s.0 - k.0).rem_euclid(360.0) - 180.0).abs() < 180.0 - apart;
+        if kept.iter().any(twin) {
             kept.push(s);
+        } else if counted < n && kept.iter().all(far) {
+            kept.push(s);
+            counted += 1;
         }
     }
     kept
@@ -452,6 +535,14 @@ pub fn init_objects_with(
     opts: &ObjectInitOptions,
     mut appearance: Option<AppearanceCue>,
 ) -> (Vec<(ObjectPlacement, Object)>, Vec<SkippedInstance>) {
+    // Split pieces first: one object, one model.
+    let (merged_inst, merges) = if opts.merge_bridges > 0 {
+        merge_split_instances(inst, depth, opts.merge_bridges, opts.merge_depth_tolerance)
+    } else {
+        (inst.clone(), vec![])
+    };
+    let inst = &merged_inst;
+    let walls = walls_of(scene);
     // Thumbnail embeddings, computed once per model.
     let mut thumbnail_embeddings: std::collections::HashMap<PathBuf, Option<Vec<f32>>> = Default::default();
     let cam = &scene.camera;
@@ -463,7 +554,18 @@ pub fn init_objects_with(
     let sw = opts.sweep_width.min(w as u32).max(8);
     let sh = ((sw as usize * h) / w).max(6) as u32;
     let mut placed = vec![];
-    let mut skipped = vec![];
+    let mut skipped: Vec<SkippedInstance> = merges
+        .iter()
+        .map(|m| SkippedInstance {
+            instance: m.merged,
+            class: m.class.clone(),
+            reason: format!(
+                "merged into instance {}: split pieces of one object ({} rows or columns cross instance {} in front \
+                 of both)",
+                m.into, m.bridges, m.occluder
+            ),
+        })
+        .collect();
     // Every furniture instance's points first: support is decided between instances.
     let points_of = |id: u16| -> Vec<Vec3> {
         let mask: Vec<bool> = inst.ids.iter().map(|&v| v == id).collect();
@@ -659,15 +761,15 @@ pub fn init_objects_with(
             let prior = opts.scale_weight * scale.ln().abs();
             let search = PoseSearch { target: &fine_target, size, prior, depth_weight: opts.depth_weight };
             let yaw_step = 180.0 / opts.yaws.max(1) as f32;
-            let mut best: Option<(f32, f32, f32, Vec3)> = None;
-            for (yaw, t, _) in distinct_yaws(&starts[o], 3, 4.0 * yaw_step) {
-                let pose = align(cam, &mut renderer, pose_at(t, yaw, *scale), &fine_target, fw, fh);
-                let found = search.compass(&mut renderer, pose, yaw, 0.15 * size, yaw_step);
-                if found.is_some_and(|f| best.is_none_or(|b| f.1 > b.1)) {
-                    best = found;
-                }
-            }
-            if let Some((yaw, sc, iou, t)) = best {
+            let found: Vec<(f32, f32, f32, Vec3)> = distinct_yaws(&starts[o], 3, 4.0 * yaw_step)
+                .into_iter()
+                .filter_map(|(yaw, t, _)| {
+                    let pose = align(cam, &mut renderer, pose_at(t, yaw, *scale), &fine_target, fw, fh);
+                    search.compass(&mut renderer, pose, yaw, 0.15 * size, yaw_step)
+                })
+                .collect();
+            let reach = half_depth(parts) * scale;
+            if let Some((yaw, sc, iou, t)) = back_to_the_wall(&found, &walls, reach, opts.wall_tie) {
                 let chosen = Candidate { yaw_deg: yaw.rem_euclid(360.0), iou, score: sc, ..c.clone() };
                 finals.push((chosen, *scale, t, o));
             }
@@ -678,6 +780,9 @@ pub fn init_objects_with(
             continue;
         };
         let parts = options[o].1.clone();
+        let against_wall = wall_behind(&walls, centre, half_depth(&parts) * scale)
+            .filter(|w| back(chosen.yaw_deg).dot(-w.normal) > 0.7)
+            .map(|w| w.name.clone());
         // Alternatives: the other finalists, then the sweep's order; a model tried at two scales counts once.
         let mut alternatives: Vec<Candidate> = vec![];
         let others = finals.iter().skip(1).map(|f| &f.0).chain(order.iter().map(|&o| &options[o].0));
@@ -702,6 +807,8 @@ pub fn init_objects_with(
                 alternatives,
                 points: pts.len(),
                 support: if base > floor_y { "raised" } else { "floor" }.into(),
+                merged: merges.iter().filter(|m| m.into == i.id).map(|m| m.merged).collect(),
+                against_wall,
             },
             object,
         ));
