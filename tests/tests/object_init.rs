@@ -198,3 +198,23 @@ fn split_pieces_of_one_object_are_merged() {
     let (apart, _) = init_objects(&room, &f.depth, &inst, &db, &opts);
     assert_eq!(apart.iter().filter(|(p, _)| p.class == "sofa").count(), 2);
 }
+
+/// An object whose mask touches nothing but wall: a cabinet mounted 1.4 m up the back wall. It is placed at
+/// the height its points show (not stood on the floor and stretched), its support "raised".
+#[test]
+fn an_object_with_wall_under_it_is_mounted() {
+    use psdr_tests::furniture::{stage_rooms, write_model_set};
+    let dir = temp_dir("object-mounted");
+    write_model_set(&dir);
+    let db = ModelSet::from_folder(&dir).unwrap();
+    let (r, _) = stage_rooms();
+    let items = [Item { model: "cabinet_0", at: Vec3::new(0.5, 1.4, -2.75), yaw: 0.0 }];
+    let (room, classes) = room_scene(&r, &[], false, 160, 120);
+    let (_, f, inst) = furnished_room(&room, &classes, &items, &dir);
+    let (placed, _) = init_objects(&room, &f.depth, &inst, &db, &ObjectInitOptions::default());
+    let (p, _) = &placed[0];
+    eprintln!("{p:?}");
+    assert_eq!(p.support, "raised");
+    assert!((p.translation[1] - 1.4).abs() < 0.1, "base at {} m", p.translation[1]);
+    assert!((p.scale - 1.0).abs() < 0.2, "scale {}", p.scale);
+}

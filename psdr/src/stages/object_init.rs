@@ -389,6 +389,25 @@ fn half_depth(parts: &[MeshPart]) -> f32 {
     }
 }
 
+/// Of the columns of instance `id`, the fraction where the first pixel under its lowest pixel is a wall.
+fn wall_below(inst: &Instances, id: u16) -> f32 {
+    let (w, h) = (inst.width, inst.height);
+    let is_wall = |v: u16| inst.instances.iter().any(|i| i.id == v && i.class == "wall");
+    let (mut columns, mut walls) = (0, 0);
+    for x in 0..w {
+        let Some(y) = (0..h).rev().find(|&y| inst.ids[y * w + x] == id) else { continue };
+        if y + 1 < h {
+            columns += 1;
+            walls += is_wall(inst.ids[(y + 1) * w + x]) as usize;
+        }
+    }
+    if columns == 0 {
+        0.0
+    } else {
+        walls as f32 / columns as f32
+    }
+}
+
 fn pose_at(translation: Vec3, yaw_deg: f32, scale: f32) -> Pose {
     Pose { translation, rotation: Quat::from_rotation_y(yaw_deg.to_radians()), scale: Vec3::splat(scale) }
 }
@@ -614,7 +633,10 @@ pub fn init_objects_with(
         let bottom = e.bottom;
         let middle = Vec3::new(percentile(&mut xs, 0.5), 0.0, percentile(&mut zs, 0.5));
         let others: Vec<Extent> = furniture.iter().filter(|(id, _)| *id != i.id).map(|(_, x)| *x).collect();
-        let hanging = i.class == "lamp" && bottom > floor_y + 1.2;
+        // Hanging or mounted: a lamp high up, or anything raised whose mask has wall right under it (nothing
+        // that could hide legs or a support).
+        let hanging =
+            bottom > floor_y + 0.15 && ((i.class == "lamp" && bottom > floor_y + 1.2) || wall_below(inst, i.id) > 0.5);
         let support = if bottom > floor_y + 0.15 { resting_on(&e, middle, &others, floor_y) } else { None };
         let base = match (support, hanging) {
             (Some(top), _) => top,
