@@ -121,6 +121,7 @@ pub fn build_engine(run: &RunRef) -> Engine {
     super::vision_api::register(&mut engine, run);
     super::object_api::register(&mut engine, run);
     super::light_api::register(&mut engine, run);
+    super::evaluation_api::register(&mut engine, run);
 
     let r = run.clone();
     engine.register_fn("stage", move |ctx: NativeCallContext, name: &str, scene: Dynamic, f: FnPtr| {

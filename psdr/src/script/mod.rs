@@ -8,6 +8,7 @@
 
 mod crops;
 mod engine;
+mod evaluation_api;
 mod light_api;
 mod object_api;
 mod optimize_api;

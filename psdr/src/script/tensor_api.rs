@@ -94,6 +94,17 @@ pub fn register(engine: &mut Engine) {
             rhai_err(Error::Invalid(format!("item: a {}x{}x{} image is not a scalar", v.width, v.height, v.channels)))
         })
     });
+    // The values of a small tensor (a mean colour, a descriptor) as numbers, row by row, channels interleaved.
+    engine.register_fn("values", |a: &mut Tensor| -> Rr<Array> {
+        let v = a.value();
+        if v.data.len() > 65536 {
+            return Err(rhai_err(Error::Invalid(format!(
+                "values: a {}x{}x{} image is too large to list (at most 65536 numbers)",
+                v.width, v.height, v.channels
+            ))));
+        }
+        Ok(v.data.iter().map(|&x| Dynamic::from(x as f64)).collect())
+    });
     engine.register_get("width", |a: &mut Tensor| a.value().width as i64);
     engine.register_get("height", |a: &mut Tensor| a.value().height as i64);
     engine.register_get("channels", |a: &mut Tensor| a.value().channels as i64);

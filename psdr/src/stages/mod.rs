@@ -2,9 +2,11 @@
 //! segmentation (`room_init`, `depth_calibration`, geometry in `point_cloud` and `plane_fit`) and the room as a
 //! scene (`room_scene`); the object stage's merging of split instances (`instance_merge`) and retrieval and
 //! placement (`object_init`); the light stage's initial lights (`light_init`) and radiance fit (`light_fit`);
-//! and the material search over the procedural library (`material_search`).
+//! the material search over the procedural library (`material_search`); and a fitted scene's errors against a
+//! ground truth (`evaluation`).
 
 mod depth_calibration;
+mod evaluation;
 mod instance_merge;
 mod light_fit;
 mod light_init;
@@ -16,6 +18,7 @@ mod room_init;
 mod room_scene;
 
 pub use depth_calibration::{calibrate_relative_depth, DepthCalibration};
+pub use evaluation::{evaluate, relative_rmse_downsampled, room_in_camera_frame, ssim_luminance};
 pub use instance_merge::{merge_split_instances, MergedInstance};
 pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use light_init::{init_lights, LightInitOptions};

@@ -1,0 +1,59 @@
+//! Ground-truth evaluation in scripts: `evaluate(scene, obs, TRUTH)` or `evaluate(scene, obs, TRUTH, #{spp})`
+//! renders the fitted scene, compares it with the ground-truth scene file of the photo (`stages::evaluate`)
+//! and records the errors in result.json as `evaluation`; it returns them too. For synthetic photos, where a
+//! truth exists: the examples, the tests and the evaluation benchmark.
+
+use super::engine::{rhai_err, Rr, RunRef};
+use super::scene_api::SceneHandle;
+use super::vision_api::ObsHandle;
+use crate::error::Error;
+use crate::render::{render_cpu, SceneData};
+use crate::scene::load_scene;
+use rhai::{Dynamic, Engine, Map};
+use std::path::Path;
+
+fn evaluate(run: &RunRef, scene: &SceneHandle, obs: &ObsHandle, truth: &str, opts: &Map) -> crate::Result<Dynamic> {
+    let mut spp = 16u32;
+    for (k, v) in opts {
+        match k.as_str() {
+            "spp" => {
+                spp =
+                    v.as_int().map_err(|_| Error::Invalid("evaluate: 'spp' must be an integer".into()))?.clamp(1, 4096)
+                        as u32
+            }
+            other => return Err(Error::Invalid(format!("evaluate: unknown option '{other}' (spp)"))),
+        }
+    }
+    let truth = load_scene(Path::new(truth))?;
+    let photo = &obs.0.photo;
+    let mut fitted = scene.0.clone();
+    (fitted.camera.width, fitted.camera.height) = (photo.width as u32, photo.height as u32);
+    if photo.channels != 3 {
+        return Err(Error::Invalid("evaluate: the photo must be RGB".into()));
+    }
+    fitted.settings.spp = spp;
+    let frame = render_cpu(&SceneData::build(&fitted)?, &fitted.settings, &|_, _| {});
+    let models: Vec<(String, String)> = run.borrow().recorded["objects_init"]["placed"]
+        .as_array()
+        .map(|placed| {
+            placed
+                .iter()
+                .filter_map(|p| Some((p["name"].as_str()?.to_string(), p["chosen"]["model"].as_str()?.to_string())))
+                .collect()
+        })
+        .unwrap_or_default();
+    let errors = crate::stages::evaluate(&fitted, &truth, &models, &frame.radiance, &photo.data);
+    run.borrow_mut().recorded.insert("evaluation".into(), errors.clone());
+    rhai::serde::to_dynamic(errors).map_err(|e| Error::Invalid(format!("evaluate: {e}")))
+}
+
+pub fn register(engine: &mut Engine, run: &RunRef) {
+    let r = run.clone();
+    engine.register_fn("evaluate", move |s: &mut SceneHandle, obs: ObsHandle, truth: &str| -> Rr<Dynamic> {
+        evaluate(&r, s, &obs, truth, &Map::new()).map_err(rhai_err)
+    });
+    let r = run.clone();
+    engine.register_fn("evaluate", move |s: &mut SceneHandle, obs: ObsHandle, truth: &str, opts: Map| -> Rr<Dynamic> {
+        evaluate(&r, s, &obs, truth, &opts).map_err(rhai_err)
+    });
+}

@@ -1,0 +1,269 @@
+//! A fitted scene's errors against a ground-truth scene of the same photo, for the examples, the tests and the
+//! evaluation benchmark. Both scenes share only the camera (a fit chooses its own world frame), so everything
+//! is compared in the camera's frame: the room's extent across and along the view and its height, the camera's
+//! height and pitch, every ground-truth object matched to the nearest fitted object of its class (centre error
+//! relative to the camera distance, yaw relative to the camera's, height ratio, whether the model is the same),
+//! the light counts, and the render against the photo (RMSE at 1/8 size relative to the photo's mean, SSIM of
+//! the luminance at full size).
+
+use crate::scene::{Camera, Object, Scene};
+use crate::vision::canonical_class;
+use glam::Vec3;
+use serde_json::{json, Value};
+
+/// Words in a name that make an object part of the room, not furniture.
+fn is_structure(name: &str) -> bool {
+    let n = name.to_ascii_lowercase();
+    ["floor", "wall", "ceiling", "window", "light"].iter().any(|w| n.contains(w))
+}
+
+/// Camera frame: right, up, forward (orthonormal).
+fn frame(c: &Camera) -> (Vec3, Vec3, Vec3) {
+    let f = c.forward.normalize();
+    let r = f.cross(c.up).normalize();
+    (r, r.cross(f), f)
+}
+
+/// A point in the camera's frame.
+fn to_camera(c: &Camera, p: Vec3) -> Vec3 {
+    let (r, u, f) = frame(c);
+    let d = p - c.origin;
+    Vec3::new(d.dot(r), d.dot(u), d.dot(f))
+}
+
+/// World-space bounds of an object's parts.
+fn bounds(o: &Object) -> Option<(Vec3, Vec3)> {
+    let m = o.pose.matrix();
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for v in o.parts.iter().flat_map(|p| &p.positions) {
+        let w = m.transform_point3(*v);
+        (lo, hi) = (lo.min(w), hi.max(w));
+    }
+    (lo.x <= hi.x).then_some((lo, hi))
+}
+
+/// The horizontal angle of a direction, degrees.
+fn heading(v: Vec3) -> f32 {
+    v.x.atan2(v.z).to_degrees()
+}
+
+/// The signed difference of two angles, in -180..180 degrees.
+fn angle_diff(a: f32, b: f32) -> f32 {
+    (a - b + 180.0).rem_euclid(360.0) - 180.0
+}
+
+/// The room as the camera sees it: extent across the view (between the walls whose normals are most nearly
+/// the camera's right), along it, height; the camera's height above the floor and pitch.
+pub fn room_in_camera_frame(s: &Scene) -> Value {
+    let c = &s.camera;
+    let (right, _, fwd) = frame(c);
+    let level = |o: &Object| bounds(o).map(|(lo, hi)| (lo.y + hi.y) / 2.0);
+    let named = |w: &'static str| s.objects.iter().filter(move |o| o.name.to_ascii_lowercase().contains(w));
+    let floor = named("floor").filter_map(level).reduce(f32::min);
+    let ceiling = named("ceiling").filter(|o| o.emitter.is_none()).filter_map(level).reduce(f32::max);
+    // Walls: an inward normal and its offset; the extent along a direction is between opposite walls.
+    let walls: Vec<(Vec3, f32)> = named("wall")
+        .map(|o| {
+            let n = (o.pose.rotation * Vec3::Z).normalize();
+            (n, n.dot(o.pose.translation))
+        })
+        .filter(|(n, _)| n.y.abs() < 0.1)
+        .collect();
+    let extent = |axis: Vec3| -> Option<f32> {
+        let side = |sign: f32| {
+            walls.iter().filter(|(n, _)| n.dot(axis) * sign > 0.9).map(|(n, d)| *d / n.dot(axis)).reduce(|a, b| {
+                if sign > 0.0 {
+                    a.max(b)
+                } else {
+                    a.min(b)
+                }
+            })
+        };
+        Some(side(-1.0)? - side(1.0)?)
+    };
+    // The Manhattan axis nearest the camera's right, and its perpendicular.
+    let across =
+        walls.iter().map(|(n, _)| *n * n.dot(right).signum()).max_by(|a, b| a.dot(right).total_cmp(&b.dot(right)));
+    let along = walls.iter().map(|(n, _)| *n * n.dot(fwd).signum()).max_by(|a, b| a.dot(fwd).total_cmp(&b.dot(fwd)));
+    json!({
+        "across": across.and_then(extent),
+        "along": along.and_then(extent),
+        "height": floor.zip(ceiling).map(|(f, c)| c - f),
+        "camera_height": floor.map(|f| c.origin.y - f),
+        "pitch_deg": c.forward.normalize().y.asin().to_degrees(),
+    })
+}
+
+/// A piece of furniture as the camera sees it.
+struct Seen {
+    name: String,
+    class: String,
+    centre: Vec3,
+    height: f32,
+    yaw: f32,
+}
+
+fn furniture(s: &Scene) -> Vec<Seen> {
+    let cam_heading = heading(s.camera.forward);
+    s.objects
+        .iter()
+        .filter(|o| o.emitter.is_none() && !is_structure(&o.name))
+        .filter_map(|o| {
+            let (lo, hi) = bounds(o)?;
+            let class = canonical_class(o.name.split(['_', '-']).next().unwrap_or("")).0.to_string();
+            Some(Seen {
+                name: o.name.clone(),
+                class,
+                centre: to_camera(&s.camera, (lo + hi) / 2.0),
+                height: hi.y - lo.y,
+                yaw: angle_diff(heading(o.pose.rotation * Vec3::Z), cam_heading),
+            })
+        })
+        .collect()
+}
+
+/// Root-mean-square error of `a` against `b` (RGB, `w` x `h`) after `k` x `k` box downsampling, relative to
+/// `b`'s mean.
+pub fn relative_rmse_downsampled(a: &[f32], b: &[f32], w: usize, h: usize, k: usize) -> f32 {
+    let (sw, sh) = ((w / k).max(1), (h / k).max(1));
+    let cell = |img: &[f32], x: usize, y: usize, c: usize| {
+        let (mut sum, mut n) = (0.0f32, 0.0f32);
+        for yy in y * k..((y + 1) * k).min(h) {
+            for xx in x * k..((x + 1) * k).min(w) {
+                sum += img[(yy * w + xx) * 3 + c];
+                n += 1.0;
+            }
+        }
+        sum / n.max(1.0)
+    };
+    let (mut se, mut mean) = (0.0f64, 0.0f64);
+    for y in 0..sh {
+        for x in 0..sw {
+            for c in 0..3 {
+                let (p, q) = (cell(a, x, y, c) as f64, cell(b, x, y, c) as f64);
+                se += (p - q) * (p - q);
+                mean += q;
+            }
+        }
+    }
+    let n = (sw * sh * 3) as f64;
+    ((se / n).sqrt() / (mean / n).max(1e-9)) as f32
+}
+
+/// Mean SSIM of the luminance of two RGB images (7 x 7 windows, the usual constants for values in 0..1).
+pub fn ssim_luminance(a: &[f32], b: &[f32], w: usize, h: usize) -> f32 {
+    let lum = |img: &[f32]| -> Vec<f32> {
+        (0..w * h).map(|p| 0.2126 * img[p * 3] + 0.7152 * img[p * 3 + 1] + 0.0722 * img[p * 3 + 2]).collect()
+    };
+    let (x, y) = (lum(a), lum(b));
+    let (c1, c2) = (0.01f32 * 0.01, 0.03f32 * 0.03);
+    let r = 3usize;
+    let (mut total, mut n) = (0.0f64, 0usize);
+    for cy in r..h.saturating_sub(r) {
+        for cx in r..w.saturating_sub(r) {
+            let (mut mx, mut my, mut xx, mut yy, mut xy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for py in cy - r..=cy + r {
+                for px in cx - r..=cx + r {
+                    let (u, v) = (x[py * w + px], y[py * w + px]);
+                    (mx, my, xx, yy, xy) = (mx + u, my + v, xx + u * u, yy + v * v, xy + u * v);
+                }
+            }
+            let k = ((2 * r + 1) * (2 * r + 1)) as f32;
+            let (mx, my) = (mx / k, my / k);
+            let (vx, vy, cxy) = (xx / k - mx * mx, yy / k - my * my, xy / k - mx * my);
+            let s = ((2.0 * mx * my + c1) * (2.0 * cxy + c2)) / ((mx * mx + my * my + c1) * (vx + vy + c2));
+            total += s as f64;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        1.0
+    } else {
+        (total / n as f64) as f32
+    }
+}
+
+/// The errors of `fitted` against `truth`. `models`: fitted object name -> retrieved model name (a ground-truth
+/// object's name is its model's); `render` and `photo`: RGB of the camera's size.
+pub fn evaluate(fitted: &Scene, truth: &Scene, models: &[(String, String)], render: &[f32], photo: &[f32]) -> Value {
+    let (w, h) = (fitted.camera.width as usize, fitted.camera.height as usize);
+    let room = (room_in_camera_frame(fitted), room_in_camera_frame(truth));
+    let rel = |k: &str| -> Value {
+        match (room.0[k].as_f64(), room.1[k].as_f64()) {
+            (Some(a), Some(b)) if b.abs() > 1e-9 => json!((a - b) / b),
+            _ => Value::Null,
+        }
+    };
+    let (fit, want) = (furniture(fitted), furniture(truth));
+    let mut used = vec![false; fit.len()];
+    let mut objects = vec![];
+    let (mut found, mut retrieved) = (0, 0);
+    // The truth's largest objects choose first.
+    let mut order: Vec<usize> = (0..want.len()).collect();
+    order.sort_by(|&a, &b| want[b].height.total_cmp(&want[a].height));
+    for t in order.into_iter().map(|k| &want[k]) {
+        let best = fit
+            .iter()
+            .enumerate()
+            .filter(|(k, f)| !used[*k] && f.class == t.class)
+            .min_by(|a, b| (a.1.centre - t.centre).length().total_cmp(&(b.1.centre - t.centre).length()));
+        let dist = t.centre.length().max(1e-3);
+        let entry = match best {
+            Some((k, f)) if (f.centre - t.centre).length() < 0.25 * dist => {
+                used[k] = true;
+                found += 1;
+                let model = models.iter().find(|(n, _)| *n == f.name).map(|(_, m)| m.clone());
+                let same = model.as_deref() == Some(t.name.as_str());
+                retrieved += usize::from(same);
+                json!({
+                    "truth": t.name, "class": t.class, "fitted": f.name, "model": model, "same_model": same,
+                    "centre_error_m": (f.centre - t.centre).length(),
+                    "centre_error_rel": (f.centre - t.centre).length() / dist,
+                    "yaw_error_deg": angle_diff(f.yaw, t.yaw).abs(),
+                    "height_error_rel": f.height / t.height.max(1e-3) - 1.0,
+                })
+            }
+            _ => json!({ "truth": t.name, "class": t.class, "fitted": null }),
+        };
+        objects.push(entry);
+    }
+    let lights = |s: &Scene, window: bool| {
+        s.objects
+            .iter()
+            .filter(|o| o.emitter.is_some() && o.name.to_ascii_lowercase().contains("window") == window)
+            .count()
+    };
+    json!({
+        "room": { "fitted": room.0, "truth": room.1,
+                  "across_error_rel": rel("across"), "along_error_rel": rel("along"), "height_error_rel": rel("height"),
+                  "camera_height_error_m": room.0["camera_height"].as_f64().zip(room.1["camera_height"].as_f64()).map(|(a, b)| a - b) },
+        "objects": objects,
+        "objects_found": found,
+        "objects_true": want.len(),
+        "objects_extra": fit.len() - found,
+        "models_retrieved": retrieved,
+        "lights": { "fitted": lights(fitted, false), "truth": lights(truth, false),
+                    "truth_windows": lights(truth, true), "fitted_windows": lights(fitted, true) },
+        "image": { "rmse_rel_1_8": relative_rmse_downsampled(render, photo, w, h, 8), "ssim": ssim_luminance(render, photo, w, h) },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn image_metrics_meet_their_definitions() {
+        let (w, h) = (32, 24);
+        let a: Vec<f32> = (0..w * h * 3).map(|i| 0.2 + 0.5 * ((i * 7919) % 101) as f32 / 101.0).collect();
+        assert!(relative_rmse_downsampled(&a, &a, w, h, 8) == 0.0);
+        assert!((ssim_luminance(&a, &a, w, h) - 1.0).abs() < 1e-5);
+        // On a uniform image a 10 % gain is an RMSE of exactly 10 % of the mean.
+        let grey = vec![0.5f32; w * h * 3];
+        let brighter: Vec<f32> = grey.iter().map(|v| v * 1.1).collect();
+        assert!((relative_rmse_downsampled(&brighter, &grey, w, h, 8) - 0.1).abs() < 1e-5);
+        let b: Vec<f32> = a.iter().map(|v| v * 1.1).collect();
+        assert!(ssim_luminance(&b, &a, w, h) < 1.0);
+        assert_eq!(angle_diff(350.0, 10.0), -20.0);
+    }
+}
