@@ -229,8 +229,16 @@ fn room_script_fits_the_box_of_a_rendered_room() {
     assert!((rr["camera"]["pitch_deg"].as_f64().unwrap() - r.pitch as f64).abs() < 1.0, "{rr}");
     assert_eq!(rr["camera"]["fov_y_deg"].as_f64().unwrap() as f32, r.fov);
     assert_eq!(rr["planes"].as_object().unwrap().len(), 6);
-    // The stage's scene renders and exports to Mitsuba.
+    // Not mirrored: the walls on the camera's left and right (it stands 0.3 m right of the middle, turned 5
+    // degrees) and ahead are where the truth has them.
     let stage_scene = psdr::scene::load_scene(&out.join("stages/01_room/scene.json")).unwrap();
+    let (fitted, truth) = (psdr::stages::room_in_camera_frame(&stage_scene), psdr::stages::room_in_camera_frame(&s));
+    eprintln!("in the camera's frame: fitted {fitted}\ntruth {truth}");
+    for k in ["left", "right", "ahead"] {
+        let (a, b) = (fitted[k].as_f64().unwrap(), truth[k].as_f64().unwrap());
+        assert!((a - b).abs() / b < 0.03, "{k}: {a} vs {b}");
+    }
+    // The stage's scene renders and exports to Mitsuba.
     let frame = render_cpu(&SceneData::build(&stage_scene).unwrap(), &stage_scene.settings, &|_, _| {});
     assert!(frame.radiance.iter().all(|v| v.is_finite()) && frame.radiance.iter().any(|v| *v > 0.0));
     let xml = psdr::export::mitsuba::export_mitsuba(&stage_scene, &dir.join("mitsuba")).unwrap();

@@ -53,7 +53,9 @@ fn angle_diff(a: f32, b: f32) -> f32 {
 }
 
 /// The room as the camera sees it: extent across the view (between the walls whose normals are most nearly
-/// the camera's right), along it, height; the camera's height above the floor and pitch.
+/// the camera's right), along it, height; the distance from the camera to the walls on its left and right,
+/// ahead and behind (a mirrored room has the right extents but not these); the camera's height above the
+/// floor and pitch.
 pub fn room_in_camera_frame(s: &Scene) -> Value {
     let c = &s.camera;
     let (right, _, fwd) = frame(c);
@@ -69,25 +71,30 @@ pub fn room_in_camera_frame(s: &Scene) -> Value {
         })
         .filter(|(n, _)| n.y.abs() < 0.1)
         .collect();
-    let extent = |axis: Vec3| -> Option<f32> {
-        let side = |sign: f32| {
-            walls.iter().filter(|(n, _)| n.dot(axis) * sign > 0.9).map(|(n, d)| *d / n.dot(axis)).reduce(|a, b| {
-                if sign > 0.0 {
-                    a.max(b)
-                } else {
-                    a.min(b)
-                }
-            })
-        };
-        Some(side(-1.0)? - side(1.0)?)
+    // The wall farthest along `axis` (sign +1) or against it (-1): its offset along the axis.
+    let side = |axis: Vec3, sign: f32| {
+        walls.iter().filter(|(n, _)| n.dot(axis) * sign < -0.9).map(|(n, d)| *d / n.dot(axis)).reduce(|a, b| {
+            if sign > 0.0 {
+                a.max(b)
+            } else {
+                a.min(b)
+            }
+        })
     };
-    // The Manhattan axis nearest the camera's right, and its perpendicular.
+    let extent = |axis: Vec3| Some(side(axis, 1.0)? - side(axis, -1.0)?);
+    // Distance from the camera to the wall on one side (signed along the axis pointing to that side).
+    let distance = |axis: Vec3, sign: f32| side(axis * sign, 1.0).map(|o| o - c.origin.dot(axis * sign));
+    // The Manhattan axis nearest the camera's right, and the one nearest its forward direction.
     let across =
         walls.iter().map(|(n, _)| *n * n.dot(right).signum()).max_by(|a, b| a.dot(right).total_cmp(&b.dot(right)));
     let along = walls.iter().map(|(n, _)| *n * n.dot(fwd).signum()).max_by(|a, b| a.dot(fwd).total_cmp(&b.dot(fwd)));
     json!({
         "across": across.and_then(extent),
         "along": along.and_then(extent),
+        "left": across.and_then(|a| distance(a, -1.0)),
+        "right": across.and_then(|a| distance(a, 1.0)),
+        "ahead": along.and_then(|a| distance(a, 1.0)),
+        "behind": along.and_then(|a| distance(a, -1.0)),
         "height": floor.zip(ceiling).map(|(f, c)| c - f),
         "camera_height": floor.map(|f| c.origin.y - f),
         "pitch_deg": c.forward.normalize().y.asin().to_degrees(),
@@ -236,6 +243,7 @@ pub fn evaluate(fitted: &Scene, truth: &Scene, models: &[(String, String)], rend
     json!({
         "room": { "fitted": room.0, "truth": room.1,
                   "across_error_rel": rel("across"), "along_error_rel": rel("along"), "height_error_rel": rel("height"),
+                  "left_error_rel": rel("left"), "right_error_rel": rel("right"), "ahead_error_rel": rel("ahead"),
                   "camera_height_error_m": room.0["camera_height"].as_f64().zip(room.1["camera_height"].as_f64()).map(|(a, b)| a - b) },
         "objects": objects,
         "objects_found": found,

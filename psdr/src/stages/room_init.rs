@@ -124,7 +124,10 @@ pub fn init_room(
     let cos_tol = opts.wall_angle_deg.to_radians().cos();
     let axes = |theta: f32| {
         let ax = e1 * theta.cos() + e2 * theta.sin(); // world +x
-        (ax, ax.cross(up)) // world +z, so that x × y = z
+                                                      // World +z. Camera space (x right, y up, z forward) is left-handed and the world is right-handed (the
+                                                      // renderer's right is forward x up): the world's axes, written in camera coordinates, must form a
+                                                      // left-handed triple, else the room comes out mirrored about the view.
+        (ax, up.cross(ax))
     };
     let (mut ax, mut az) = axes(theta);
     // A wall counts as seen with enough points of its own (edge pixels with noisy normals do not make one).
