@@ -203,3 +203,34 @@ pub fn psdr_bin() -> Option<PathBuf> {
     }
     Some(bin)
 }
+
+/// Khronos' glTF validator (npm gltf-validator in ~/.cache/psdr-npm, run by node), if installed; without it a
+/// test skips that check unless PSDR_REQUIRE_GLTF_VALIDATOR=1.
+pub fn gltf_validator() -> Option<PathBuf> {
+    let home = std::env::var_os("HOME").map(PathBuf::from)?;
+    let dir = home.join(".cache/psdr-npm/node_modules/gltf-validator");
+    let node = std::process::Command::new("node").arg("--version").output().is_ok_and(|o| o.status.success());
+    if node && dir.join("index.js").is_file() {
+        return Some(dir);
+    }
+    assert!(
+        std::env::var_os("PSDR_REQUIRE_GLTF_VALIDATOR").is_none(),
+        "PSDR_REQUIRE_GLTF_VALIDATOR is set but node or gltf-validator is missing (bash .ci/install-deps)"
+    );
+    eprintln!("skipping the validator: node or ~/.cache/psdr-npm/node_modules/gltf-validator missing");
+    None
+}
+
+/// The validator's (errors, warnings) for a file.
+pub fn validate_glb(dir: &std::path::Path, glb: &std::path::Path) -> (u64, u64, String) {
+    let script = format!(
+        "const v=require('{}');const d=new Uint8Array(require('fs').readFileSync('{}'));\
+         v.validateBytes(d).then(r=>console.log(JSON.stringify(r.issues))).catch(e=>{{console.error(e);process.exit(1)}});",
+        dir.display(),
+        glb.display()
+    );
+    let out = std::process::Command::new("node").args(["-e", &script]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let issues: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    (issues["numErrors"].as_u64().unwrap(), issues["numWarnings"].as_u64().unwrap(), issues["messages"].to_string())
+}

@@ -8,7 +8,7 @@ use psdr::export::gltf::export_glb;
 use psdr::scene::load_scene;
 use psdr_tests::rooms::{furniture, room_scene, RoomSpec};
 use psdr_tests::{temp_dir, SplitMix64};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// (JSON, BIN) of a .glb, checking the container's framing.
 fn read_glb(path: &Path) -> (serde_json::Value, Vec<u8>) {
@@ -40,35 +40,6 @@ fn vec3s(json: &serde_json::Value, bin: &[u8], accessor: usize) -> Vec<Vec3> {
             Vec3::new(f(0), f(1), f(2))
         })
         .collect()
-}
-
-fn validator() -> Option<PathBuf> {
-    let home = std::env::var_os("HOME").map(PathBuf::from)?;
-    let dir = home.join(".cache/psdr-npm/node_modules/gltf-validator");
-    let node = std::process::Command::new("node").arg("--version").output().is_ok_and(|o| o.status.success());
-    if node && dir.join("index.js").is_file() {
-        return Some(dir);
-    }
-    assert!(
-        std::env::var_os("PSDR_REQUIRE_GLTF_VALIDATOR").is_none(),
-        "PSDR_REQUIRE_GLTF_VALIDATOR is set but node or gltf-validator is missing (bash .ci/install-deps)"
-    );
-    eprintln!("skipping the validator: node or ~/.cache/psdr-npm/node_modules/gltf-validator missing");
-    None
-}
-
-/// The validator's (errors, warnings) for a file.
-fn validate(dir: &Path, glb: &Path) -> (u64, u64, String) {
-    let script = format!(
-        "const v=require('{}');const d=new Uint8Array(require('fs').readFileSync('{}'));\
-         v.validateBytes(d).then(r=>console.log(JSON.stringify(r.issues))).catch(e=>{{console.error(e);process.exit(1)}});",
-        dir.display(),
-        glb.display()
-    );
-    let out = std::process::Command::new("node").args(["-e", &script]).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let issues: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    (issues["numErrors"].as_u64().unwrap(), issues["numWarnings"].as_u64().unwrap(), issues["messages"].to_string())
 }
 
 #[test]
@@ -112,8 +83,8 @@ fn glb_export_round_trips_and_validates() {
             }
         }
         assert!(json["materials"].as_array().unwrap().len() >= scene.materials.len());
-        if let Some(v) = validator() {
-            let (errors, warnings, messages) = validate(&v, &glb);
+        if let Some(v) = psdr_tests::gltf_validator() {
+            let (errors, warnings, messages) = psdr_tests::validate_glb(&v, &glb);
             eprintln!("{name}: {errors} errors, {warnings} warnings");
             assert_eq!(errors, 0, "{messages}");
         }

@@ -107,8 +107,9 @@ pub fn run_script(run: ScriptRun, backend: Box<dyn Backend>) -> Result<RunSummar
     if let Some(scene) = &final_scene {
         let path = run.out.join("scene.json");
         crate::scene::save_scene(scene, &path)?;
-        // The scene for Blender and the web as well.
+        // The scene for Blender and the web, and for Mitsuba 3, as well.
         crate::export::gltf::export_glb(scene, &run.out.join("scene.glb"))?;
+        crate::export::mitsuba::export_mitsuba(scene, &run.out.join("mitsuba"))?;
         c.preview(scene, &run.out.join("render.png"))?;
         scene_path = Some(path);
     }
