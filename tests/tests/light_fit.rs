@@ -134,3 +134,53 @@ fn candidates_avoid_the_view_and_fit_a_light_they_do_not_contain() {
     assert!((fit.luminance_ratio - 1.0).abs() < 0.05, "{}", fit.luminance_ratio);
     assert!(fit.kept.iter().filter(|k| **k).count() < names.len(), "nothing removed");
 }
+
+/// A window the photo shows becomes an area light where it is: an emissive 1.2 x 1.0 m pane in the left wall of
+/// a rendered room, segmented as `window`, is placed by `add_visible_windows` on that wall with its centre and
+/// size within 5 cm, facing into the room.
+#[test]
+fn a_visible_window_becomes_a_light_on_its_wall() {
+    use glam::Quat;
+    use psdr::scene::{rectangle_mesh, Object, Pose};
+    use psdr::stages::add_visible_windows;
+    use psdr::vision::{canonical_class, Instance, Instances};
+    let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.8, 1.5, 2.6), yaw: 15.0, pitch: -8.0, fov: 60.0 };
+    let (mut room, _) = room_scene(&r, &[], false, 128, 96);
+    // The test room's walls are named wall_*; the window 1 cm in front of the left wall (x = -2.5).
+    let mut pane = rectangle_mesh(1.2, 1.0);
+    pane.material = 0;
+    let at = Vec3::new(-2.49, 1.4, -0.5);
+    room.objects.push(Object {
+        name: "window".into(),
+        parts: vec![pane],
+        pose: Pose { translation: at, rotation: Quat::from_rotation_y(std::f32::consts::FRAC_PI_2), scale: Vec3::ONE },
+        emitter: Some(Emitter { radiance: Vec3::splat(5.0), two_sided: false }),
+    });
+    let f = render_cpu(&SceneData::build(&room).unwrap(), &room.settings, &|_, _| {});
+    let o = room.object_index("window").unwrap() as u32;
+    let ids: Vec<u16> = f.object_id.iter().map(|&i| u16::from(i == o)).collect();
+    let pixels = ids.iter().filter(|&&v| v == 1).count();
+    assert!(pixels > 200, "the window covers {pixels} pixels");
+    let (class, kind) = canonical_class("window");
+    let inst = Instances {
+        width: 128,
+        height: 96,
+        ids,
+        instances: vec![Instance { id: 1, label: Some("window".into()), class: class.into(), kind, pixels }],
+    };
+    let mut fitted = room.clone();
+    fitted.objects.retain(|o| o.emitter.is_none());
+    let names = add_visible_windows(&mut fitted, &f.depth, &inst, 20);
+    assert_eq!(names, ["light_window_1"]);
+    let w = fitted.objects.iter().find(|o| o.name == names[0]).unwrap();
+    let (lo, hi) = w.parts[0]
+        .positions
+        .iter()
+        .map(|p| w.pose.matrix().transform_point3(*p))
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(p), b.max(p)));
+    eprintln!("window placed {lo} .. {hi}");
+    assert!(((lo + hi) / 2.0 - at).length() < 0.05, "centre {}", (lo + hi) / 2.0);
+    assert!(((hi.z - lo.z) - 1.2).abs() < 0.05 && ((hi.y - lo.y) - 1.0).abs() < 0.05, "size {}", hi - lo);
+    assert!((w.pose.rotation * Vec3::Z).dot(Vec3::X) > 0.99, "faces into the room");
+    assert!(w.emitter.is_some());
+}

@@ -1,9 +1,11 @@
 //! The light stage's initialisation in scripts: `lights_init(s)` replaces a room scene's emitters with the
 //! candidate lights, `fit_lights(s, photo)` fits their radiances to the photo and removes the ones it does not
-//! need (in place); the fit goes into result.json as `light_fit`.
+//! need (in place); the fit goes into result.json as `light_fit`. `windows_init(s, obs)` adds the windows the
+//! photo shows as area lights.
 
 use super::engine::{rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
+use super::vision_api::ObsHandle;
 use crate::error::Error;
 use crate::loss::Tensor;
 use crate::stages::{fit_lights, init_lights, LightFitOptions, LightInitOptions};
@@ -87,7 +89,29 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
     Ok(out)
 }
 
+/// `windows_init(s, obs)`: the windows the photo shows, as area lights (after `lights_init`, which replaces
+/// every emitter).
+fn windows_init(scene: &mut SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Result<Array> {
+    let mut min_pixels = 20usize;
+    for (k, v) in opts {
+        match k.as_str() {
+            "min_pixels" => min_pixels = number(k, v, "windows_init")?.max(0.0) as usize,
+            other => return Err(Error::Invalid(format!("windows_init: unknown option '{other}' (min_pixels)"))),
+        }
+    }
+    let depth = obs.0.require_depth()?;
+    let inst = obs.0.require_instances()?;
+    let names = crate::stages::add_visible_windows(&mut scene.0, &depth.image.data, inst, min_pixels);
+    Ok(names.into_iter().map(Dynamic::from).collect())
+}
+
 pub fn register(engine: &mut Engine, run: &RunRef) {
+    engine.register_fn("windows_init", |s: &mut SceneHandle, obs: ObsHandle| -> Rr<Array> {
+        windows_init(s, &obs, &Map::new()).map_err(rhai_err)
+    });
+    engine.register_fn("windows_init", |s: &mut SceneHandle, obs: ObsHandle, opts: Map| -> Rr<Array> {
+        windows_init(s, &obs, &opts).map_err(rhai_err)
+    });
     engine.register_fn("lights_init", |s: &mut SceneHandle| -> Rr<Array> {
         lights_init(s, &Map::new()).map_err(rhai_err)
     });

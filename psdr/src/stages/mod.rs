@@ -1,7 +1,8 @@
 //! Pipeline stages (PSDR-Room's Method), the parts scripts call: the room stage's initialisation from depth and
 //! segmentation (`room_init`, `depth_calibration`, geometry in `point_cloud` and `plane_fit`) and the room as a
 //! scene (`room_scene`); the object stage's merging of split instances (`instance_merge`) and retrieval and
-//! placement (`object_init`); the light stage's initial lights (`light_init`) and radiance fit (`light_fit`);
+//! placement (`object_init`); the light stage's initial lights (`light_init`, and `window_lights` for the
+//! windows the photo shows) and radiance fit (`light_fit`);
 //! the material search over the procedural library (`material_search`); and a fitted scene's errors against a
 //! ground truth (`evaluation`).
 
@@ -16,6 +17,7 @@ mod plane_fit;
 mod point_cloud;
 mod room_init;
 mod room_scene;
+mod window_lights;
 
 pub use depth_calibration::{calibrate_relative_depth, DepthCalibration};
 pub use evaluation::{evaluate, relative_rmse_downsampled, room_in_camera_frame, ssim_luminance};
@@ -30,3 +32,4 @@ pub use plane_fit::{fit_plane, fit_plane_in_depth, ransac_plane, symmetric_eigen
 pub use point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};
 pub use room_init::{init_room, RoomEstimate, RoomInitOptions};
 pub use room_scene::{room_scene, room_summary, ROOM_SURFACES};
+pub use window_lights::add_visible_windows;

@@ -1,0 +1,83 @@
+//! Windows the photo shows become area lights (PSDR-Room: "visible windows and lamps made emissive"): each
+//! window instance's pixels are back-projected with the depth, the wall they lie on is the scene's nearest
+//! wall plane, and the window is the range of its points on that wall, an emissive rectangle 1 cm in
+//! front of it, radiance 1 (the light fit scales it). Named `light_window_ID`, so the light fit and the material
+//! stage treat it as a light.
+
+use super::point_cloud::Intrinsics;
+use crate::scene::{rectangle_mesh, Emitter, Material, Object, Pose, Scene};
+use crate::vision::Instances;
+use glam::{Quat, Vec3};
+
+fn percentile(v: &mut [f32], q: f32) -> f32 {
+    v.sort_by(f32::total_cmp);
+    v[((v.len() - 1) as f32 * q).round() as usize]
+}
+
+/// Adds an emitter for every window instance of `inst` with at least `min_pixels` pixels of depth; returns
+/// their names.
+pub fn add_visible_windows(scene: &mut Scene, depth: &[f32], inst: &Instances, min_pixels: usize) -> Vec<String> {
+    let cam = scene.camera.clone();
+    let k = Intrinsics::new(inst.width, inst.height, cam.fov_y_deg);
+    let (right, up, fwd) = (cam.right(), cam.up, cam.forward);
+    let walls: Vec<(Vec3, f32)> = scene
+        .objects
+        .iter()
+        .filter(|o| o.name.starts_with("wall"))
+        .map(|o| {
+            let n = (o.pose.rotation * Vec3::Z).normalize();
+            (n, n.dot(o.pose.translation))
+        })
+        .filter(|(n, _)| n.y.abs() < 0.1)
+        .collect();
+    let mut names = vec![];
+    for i in inst.instances.iter().filter(|i| i.class == "window") {
+        let points: Vec<Vec3> = (0..inst.width * inst.height)
+            .filter(|&p| inst.ids[p] == i.id && depth[p] > 0.0)
+            .map(|p| {
+                let c = k.point(p % inst.width, p / inst.width, depth[p]);
+                cam.origin + right * c.x + up * c.y + fwd * c.z
+            })
+            .collect();
+        if points.len() < min_pixels.max(4) {
+            continue;
+        }
+        // The wall the points lie on: the one with the least median distance to them.
+        let distance = |(n, d): &(Vec3, f32)| {
+            let mut v: Vec<f32> = points.iter().map(|p| (n.dot(*p) - d).abs()).collect();
+            percentile(&mut v, 0.5)
+        };
+        let Some(&(n, d)) = walls.iter().min_by(|a, b| distance(a).total_cmp(&distance(b))) else { continue };
+        let across = Vec3::Y.cross(n).normalize();
+        let (mut us, mut vs): (Vec<f32>, Vec<f32>) = points.iter().map(|p| (p.dot(across), p.y)).unzip();
+        // The 2-98 % range, widened by the 4 % of a uniform spread it leaves out (a few stray edge pixels do
+        // not stretch the window).
+        let (u0, u1, v0, v1) = (
+            percentile(&mut us, 0.02),
+            percentile(&mut us, 0.98),
+            percentile(&mut vs, 0.02),
+            percentile(&mut vs, 0.98),
+        );
+        if u1 - u0 < 0.05 || v1 - v0 < 0.05 {
+            continue;
+        }
+        let (width, height) = ((u1 - u0) / 0.96, (v1 - v0) / 0.96);
+        let centre = across * (u0 + u1) / 2.0 + Vec3::Y * (v0 + v1) / 2.0 + n * (d + 0.01);
+        if scene.materials.iter().all(|m| m.name != "window") {
+            scene.materials.push(Material::diffuse("window", Vec3::splat(0.8)));
+        }
+        let m = scene.materials.iter().position(|m| m.name == "window").unwrap_or(0);
+        let mut part = rectangle_mesh(width, height);
+        part.material = m;
+        let name = format!("light_window_{}", i.id);
+        scene.objects.push(Object {
+            name: name.clone(),
+            parts: vec![part],
+            // The rectangle faces +z: turned about the vertical to face into the room.
+            pose: Pose { translation: centre, rotation: Quat::from_rotation_y(n.x.atan2(n.z)), scale: Vec3::ONE },
+            emitter: Some(Emitter { radiance: Vec3::ONE, two_sided: false }),
+        });
+        names.push(name);
+    }
+    names
+}
