@@ -5,10 +5,9 @@
 
 use crate::error::{Error, Result};
 use crate::render::layout::NONE;
-use crate::render::primary_hits::primary_hits;
+use crate::render::primary_hits::{model_scene_data, primary_hits};
 use crate::render::scene_data::camera_gpu;
-use crate::render::SceneData;
-use crate::scene::{Camera, Material, MeshPart, Object, Pose, RenderSettings, Scene};
+use crate::scene::{Camera, MeshPart};
 use glam::Vec3;
 
 /// Cells per side of a descriptor.
@@ -117,26 +116,10 @@ pub fn model_silhouettes(parts: &[MeshPart]) -> Result<Vec<Silhouette>> {
         return Err(Error::Invalid("silhouette: a model without vertices".into()));
     }
     let (centre, radius) = ((lo + hi) / 2.0, ((hi - lo).length() / 2.0).max(1e-3));
-    let parts: Vec<MeshPart> = parts
-        .iter()
-        .cloned()
-        .map(|mut p| {
-            p.material = 0;
-            p
-        })
-        .collect();
     let fov = 20.0f32;
     let dist = radius / (fov.to_radians() / 2.0).sin();
-    let scene = Scene {
-        camera: Camera::look_at(centre + Vec3::Z * dist, centre, Vec3::Y, fov, VIEW_SIZE, VIEW_SIZE),
-        settings: RenderSettings { spp: 1, max_depth: 1, rr_depth: 1, seed: 0 },
-        materials: vec![Material::diffuse("m", Vec3::splat(0.5))],
-        textures: vec![],
-        objects: vec![Object { name: "model".into(), parts, pose: Pose::default(), emitter: None }],
-        source: None,
-        requires_grad: vec![],
-    };
-    let data = SceneData::build(&scene)?;
+    let camera = Camera::look_at(centre + Vec3::Z * dist, centre, Vec3::Y, fov, VIEW_SIZE, VIEW_SIZE);
+    let data = model_scene_data(parts, camera)?;
     let mut views = vec![];
     for elevation in ELEVATIONS_DEG {
         for k in 0..YAWS {

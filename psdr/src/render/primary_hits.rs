@@ -5,8 +5,32 @@ use super::bvh::trace_closest;
 use super::camera::camera_ray;
 use super::layout::{CameraGpu, NONE};
 use super::SceneData;
+use crate::error::Result;
+use crate::scene::{Camera, Material, MeshPart, Object, Pose, RenderSettings, Scene};
 use glam::Vec3;
 use rayon::prelude::*;
+
+/// The scene data of one model alone at the identity pose (every part one grey material, one sample, one
+/// bounce), seen by `camera`: what `primary_hits` casts against to outline or pose a model.
+pub fn model_scene_data(parts: &[MeshPart], camera: Camera) -> Result<SceneData> {
+    let parts = parts
+        .iter()
+        .cloned()
+        .map(|mut p| {
+            p.material = 0;
+            p
+        })
+        .collect();
+    SceneData::build(&Scene {
+        camera,
+        settings: RenderSettings { spp: 1, max_depth: 1, rr_depth: 1, seed: 0 },
+        materials: vec![Material::diffuse("model", Vec3::splat(0.5))],
+        textures: vec![],
+        objects: vec![Object { name: "model".into(), parts, pose: Pose::default(), emitter: None }],
+        source: None,
+        requires_grad: vec![],
+    })
+}
 
 /// Per pixel of `cam`'s image: the hit object's index (`NONE` on a miss) and the camera-space depth of the hit
 /// (0 on a miss), times `depth_scale` (a camera moved into a scaled object's frame sees depths divided by it).

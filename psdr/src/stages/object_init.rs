@@ -10,10 +10,10 @@ use super::instance_merge::merge_split_instances;
 use super::point_cloud::{erode, surface_points, Intrinsics};
 use crate::db::{best_view_iou, ModelEntry, ModelSet, Silhouette};
 use crate::loss::Image;
-use crate::render::primary_hits::primary_hits;
+use crate::render::primary_hits::{model_scene_data, primary_hits};
 use crate::render::scene_data::camera_gpu;
 use crate::render::SceneData;
-use crate::scene::{box_mesh, Camera, Material, MeshPart, Object, Pose, RenderSettings, Scene};
+use crate::scene::{box_mesh, Camera, MeshPart, Object, Pose, Scene};
 use crate::vision::{cosine, embed, load_photo, ClassKind, Instances, OnnxModel};
 use glam::{Quat, Vec3};
 use std::path::PathBuf;
@@ -191,29 +191,12 @@ impl PoseRenderer {
     fn new(camera: &Camera, parts: &[MeshPart], w: u32, h: u32) -> Option<PoseRenderer> {
         let mut cam = camera.clone();
         (cam.width, cam.height) = (w, h);
-        let parts = parts
-            .iter()
-            .cloned()
-            .map(|mut p| {
-                p.material = 0;
-                p
-            })
-            .collect();
-        let scene = Scene {
-            camera: cam.clone(),
-            settings: RenderSettings { spp: 1, max_depth: 1, rr_depth: 1, seed: 0 },
-            materials: vec![Material::diffuse("m", Vec3::splat(0.5))],
-            textures: vec![],
-            objects: vec![Object { name: "o".into(), parts, pose: Pose::default(), emitter: None }],
-            source: None,
-            requires_grad: vec![],
-        };
-        let data = SceneData::build(&scene).ok()?;
+        let data = model_scene_data(parts, cam.clone()).ok()?;
         Some(PoseRenderer { camera: cam, data })
     }
 
-    /// Object ids (0 on the model, `render::layout::NONE` elsewhere) and depth (world units, 0 on a miss) with the model at
-    /// `pose` (uniform scale).
+    /// Object ids (0 on the model, `render::layout::NONE` elsewhere) and depth (world units, 0 on a miss)
+    /// with the model at `pose` (uniform scale).
     fn render(&mut self, pose: Pose) -> Option<(Vec<u32>, Vec<f32>)> {
         let (inv, s) = (pose.rotation.inverse(), pose.scale.x.max(1e-6));
         let c = &self.camera;
