@@ -1,9 +1,9 @@
 //! Pipeline stages (PSDR-Room's Method), the parts scripts call: the room stage's initialisation from depth and
 //! segmentation (`room_init`, `depth_calibration`, geometry in `point_cloud` and `plane_fit`) and the room as a
-//! scene (`room_scene`); the object stage's merging of split instances (`instance_merge`) and retrieval and
-//! placement (`object_init`); the light stage's initial lights (`light_init`, and `window_lights` for the
-//! windows the photo shows) and radiance fit (`light_fit`);
-//! the material search over the procedural library (`material_search`); and a fitted scene's errors against a
+//! scene (`room_scene`); the object stage's merging of split instances (`instance_merge`), retrieval and
+//! placement (`object_init`, with `pose_search` and `object_support`); the light stage's initial lights
+//! (`light_init`, and `window_lights` for the windows the photo shows) and radiance fit (`light_fit`); the
+//! material search over the procedural library (`material_search`); and a fitted scene's errors against a
 //! ground truth (`evaluation`).
 
 mod depth_calibration;
@@ -13,8 +13,10 @@ mod light_fit;
 mod light_init;
 mod material_search;
 mod object_init;
+mod object_support;
 mod plane_fit;
 mod point_cloud;
+mod pose_search;
 mod room_init;
 mod room_scene;
 mod window_lights;

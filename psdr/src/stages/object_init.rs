@@ -1,21 +1,26 @@
 //! The object stage's initialisation and weight-free retrieval (PSDR-Room, "Object stage"): every furniture
-//! instance big enough to matter gets a model and a pose. The instance's eroded mask is back-projected with the
-//! depth; its centre on the floor is the median of the points, its height the top of the points. Each model of
-//! the instance's class is then rendered at that place over a yaw sweep (uniform scale from the height), scored
-//! by mask IoU against the instance (pixels of other instances, possible occluders, left out) less the depth
-//! misfit; the best (model, yaw) wins and the runners-up are kept so a user can swap. A class without models
-//! gets a box of the observed size, and says so.
+//! instance big enough to matter gets a model and a pose. Split pieces of one object are merged first
+//! (`instance_merge`). The instance's eroded mask is back-projected with the depth; its centre on the floor is
+//! the median of the points, its height the top of the points, and what it stands on is decided against the
+//! other instances (`object_support`). The class's models closest in real size and outline (and appearance,
+//! with an image encoder: `AppearanceCue`) are rendered at that place over a yaw sweep and scored by mask IoU
+//! against the instance (pixels of other instances, possible occluders, left out) less the depth misfit; the
+//! leaders are searched again finer (`pose_search`), near-ties broken by the wall prior. The best wins and the
+//! runners-up are kept so a user can swap. A class without models gets a box of the observed size, and says so.
 
 use super::instance_merge::merge_split_instances;
+use super::object_support::{
+    back, back_to_the_wall, half_depth, resting_on, wall_behind, wall_below, walls_of, Extent,
+};
 use super::point_cloud::{erode, surface_points, Intrinsics};
+use super::pose_search::{
+    align, distinct_yaws, footprint_size, percentile, pose_at, score, sweep_target, PoseRenderer, PoseSearch,
+};
 use crate::db::{best_view_iou, ModelEntry, ModelSet, Silhouette};
 use crate::loss::Image;
-use crate::render::primary_hits::{model_scene_data, primary_hits};
-use crate::render::scene_data::camera_gpu;
-use crate::render::SceneData;
-use crate::scene::{box_mesh, Camera, MeshPart, Object, Pose, Scene};
+use crate::scene::{box_mesh, MeshPart, Object, Scene};
 use crate::vision::{cosine, embed, load_photo, ClassKind, Instances, OnnxModel};
-use glam::{Quat, Vec3};
+use glam::Vec3;
 use std::path::PathBuf;
 
 /// Knobs of the initialisation.
@@ -115,164 +120,6 @@ pub struct SkippedInstance {
     pub reason: String,
 }
 
-fn percentile(v: &mut [f32], q: f32) -> f32 {
-    v.sort_by(f32::total_cmp);
-    v[((v.len() - 1) as f32 * q).round() as usize]
-}
-
-/// The target at the sweep's size: 1 inside the instance, 0 outside, None where another instance (a possible
-/// occluder) covers the pixel; and the observed depth.
-struct SweepTarget {
-    w: usize,
-    h: usize,
-    mask: Vec<Option<bool>>,
-    depth: Vec<f32>,
-}
-
-fn sweep_target(inst: &Instances, depth: &[f32], id: u16, w: usize, h: usize) -> SweepTarget {
-    let (pw, ph) = (inst.width, inst.height);
-    let mut mask = vec![None; w * h];
-    let mut d = vec![0.0; w * h];
-    for y in 0..h {
-        for x in 0..w {
-            let (sx, sy) = ((x * pw + pw / 2) / w, (y * ph + ph / 2) / h);
-            let p = sy.min(ph - 1) * pw + sx.min(pw - 1);
-            let other = inst.ids[p] != 0 && inst.ids[p] != id && {
-                let kind = inst.instances.iter().find(|i| i.id == inst.ids[p]).map(|i| i.kind);
-                kind != Some(ClassKind::Structure)
-            };
-            mask[y * w + x] = if other { None } else { Some(inst.ids[p] == id) };
-            d[y * w + x] = depth[p];
-        }
-    }
-    SweepTarget { w, h, mask, depth: d }
-}
-
-/// IoU over the pixels the target does not leave out, less `depth_weight` x the mean depth misfit where both
-/// cover, in units of the object's size (a bookcase turned to show its back panel is a shelf depth off, which
-/// is small against the camera distance but not against the bookcase).
-fn score(target: &SweepTarget, ids: &[u32], depth: &[f32], size: f32, depth_weight: f32) -> (f32, f32) {
-    let (mut inter, mut union) = (0usize, 0usize);
-    let mut misfit = vec![];
-    for p in 0..target.w * target.h {
-        let Some(t) = target.mask[p] else { continue };
-        let r = ids[p] == 0;
-        inter += (t && r) as usize;
-        union += (t || r) as usize;
-        if t && r && target.depth[p] > 0.0 {
-            misfit.push(((depth[p] - target.depth[p]).abs() / size.max(0.05)).min(1.0));
-        }
-    }
-    let iou = if union == 0 { 0.0 } else { inter as f32 / union as f32 };
-    let m = if misfit.is_empty() { 1.0 } else { misfit.iter().sum::<f32>() / misfit.len() as f32 };
-    (iou, iou - depth_weight * m)
-}
-
-/// The larger horizontal extent of a model's parts.
-fn footprint_size(parts: &[MeshPart]) -> f32 {
-    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-    for v in parts.iter().flat_map(|p| &p.positions) {
-        lo = lo.min(*v);
-        hi = hi.max(*v);
-    }
-    (hi.x - lo.x).max(hi.z - lo.z).max(0.05)
-}
-
-/// Renders one model alone with the photo's camera at the sweep's size: the object id and camera-space depth
-/// of one ray through each pixel's centre (a mask and a depth need no shading). The model's BVH is built once
-/// at the identity pose; a pose (translation, yaw, uniform scale) is rendered by moving the camera into the
-/// model's frame instead, so a sweep costs ray casts, not rebuilds.
-struct PoseRenderer {
-    camera: Camera,
-    data: SceneData,
-}
-
-impl PoseRenderer {
-    fn new(camera: &Camera, parts: &[MeshPart], w: u32, h: u32) -> Option<PoseRenderer> {
-        let mut cam = camera.clone();
-        (cam.width, cam.height) = (w, h);
-        let data = model_scene_data(parts, cam.clone()).ok()?;
-        Some(PoseRenderer { camera: cam, data })
-    }
-
-    /// Object ids (0 on the model, `render::layout::NONE` elsewhere) and depth (world units, 0 on a miss)
-    /// with the model at `pose` (uniform scale).
-    fn render(&mut self, pose: Pose) -> Option<(Vec<u32>, Vec<f32>)> {
-        let (inv, s) = (pose.rotation.inverse(), pose.scale.x.max(1e-6));
-        let c = &self.camera;
-        let mut local = c.clone();
-        local.origin = inv * (c.origin - pose.translation) / s;
-        local.forward = inv * c.forward;
-        local.up = inv * c.up;
-        if !local.origin.is_finite() {
-            return None;
-        }
-        let (ids, depth) = primary_hits(&self.data, &camera_gpu(&local), s);
-        Some((ids, depth))
-    }
-}
-
-/// Where an instance's points are: the floor-plane box of their 10-90 % range and the heights of their 2 % and
-/// 95 % points.
-#[derive(Clone, Copy)]
-struct Extent {
-    lo: Vec3,
-    hi: Vec3,
-    bottom: f32,
-    top: f32,
-}
-
-/// The top of the highest other instance whose floor-plane box holds this one's centre and whose points end
-/// below this one's bottom (a lamp on a table: the lamp's thin base may be hidden, so its lowest visible points
-/// can be well above the table): what it stands on, if anything.
-fn resting_on(e: &Extent, centre: Vec3, others: &[Extent], floor_y: f32) -> Option<f32> {
-    others
-        .iter()
-        .filter(|o| {
-            o.top > floor_y + 0.15
-                && o.top < e.bottom + 0.15
-                && (o.lo.x..=o.hi.x).contains(&centre.x)
-                && (o.lo.z..=o.hi.z).contains(&centre.z)
-        })
-        .map(|o| o.top)
-        .reduce(f32::max)
-}
-
-/// The median-depth point of the pixels where `inside` holds, in world coordinates, if there are any.
-fn median_point(cam: &Camera, k: &Intrinsics, depth: &[f32], inside: impl Fn(usize) -> bool) -> Option<Vec3> {
-    let mut xs = vec![];
-    let mut ys = vec![];
-    let mut zs = vec![];
-    for (p, &z) in depth.iter().enumerate().take(k.width * k.height) {
-        if inside(p) && z > 0.0 {
-            xs.push((p % k.width) as f32);
-            ys.push((p / k.width) as f32);
-            zs.push(z);
-        }
-    }
-    if xs.is_empty() {
-        return None;
-    }
-    let (x, y, z) = (percentile(&mut xs, 0.5), percentile(&mut ys, 0.5), percentile(&mut zs, 0.5));
-    let c = k.point(x as usize, y as usize, z);
-    Some(cam.origin + cam.right() * c.x + cam.up * c.y + cam.forward * c.z)
-}
-
-/// Slides the object on the floor until the median visible point of its render meets the instance's (two
-/// steps): the visible points are the object's near side, so its centre starts too close to the camera, and
-/// by how much depends on the model and its yaw.
-fn align(cam: &Camera, renderer: &mut PoseRenderer, mut pose: Pose, target: &SweepTarget, w: u32, h: u32) -> Pose {
-    let k = Intrinsics::new(w as usize, h as usize, cam.fov_y_deg);
-    let Some(want) = median_point(cam, &k, &target.depth, |p| target.mask[p] == Some(true)) else { return pose };
-    for _ in 0..2 {
-        let Some((ids, depth)) = renderer.render(pose) else { break };
-        let Some(got) = median_point(cam, &k, &depth, |p| ids[p] == 0 && target.mask[p].is_some()) else { break };
-        let step = want - got;
-        pose.translation += Vec3::new(step.x, 0.0, step.z);
-    }
-    pose
-}
-
 /// The fraction of instance `id`'s outline pixels that border another furniture or object instance nearer
 /// the camera: how much of its silhouette others may hide.
 fn hidden_outline(inst: &Instances, depth: &[f32], id: u16) -> f32 {
@@ -307,177 +154,11 @@ fn hidden_outline(inst: &Instances, depth: &[f32], id: u16) -> f32 {
     }
 }
 
-/// A wall of the room: a point on it, its normal into the room, its name.
-struct Wall {
-    point: Vec3,
-    normal: Vec3,
-    name: String,
-}
-
-/// The scene's walls: objects named `wall*` whose surface stands upright (a rectangle facing +z, turned).
-fn walls_of(scene: &Scene) -> Vec<Wall> {
-    scene
-        .objects
-        .iter()
-        .filter(|o| o.name.starts_with("wall"))
-        .map(|o| Wall { point: o.pose.translation, normal: o.pose.rotation * Vec3::Z, name: o.name.clone() })
-        .filter(|w| w.normal.y.abs() < 0.1)
-        .collect()
-}
-
-/// How far a model's back may stand from a wall and still count as turned to it, metres (furniture along a
-/// wall keeps a skirting board's or a radiator's distance, or a walkway's).
-const AGAINST_WALL: f32 = 0.5;
-
-/// The nearest wall within `AGAINST_WALL` of the centre's footprint edge `reach` (half the model's depth).
-fn wall_behind(walls: &[Wall], centre: Vec3, reach: f32) -> Option<&Wall> {
-    walls
-        .iter()
-        .map(|w| (w, (centre - w.point).dot(w.normal) - reach))
-        .filter(|(_, gap)| (-0.1..AGAINST_WALL).contains(gap))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(w, _)| w)
-}
-
-/// The model's back as it stands at `yaw` degrees (its local -z).
-fn back(yaw_deg: f32) -> Vec3 {
-    Quat::from_rotation_y(yaw_deg.to_radians()) * -Vec3::Z
-}
-
-/// The best of `found` (yaw, score, iou, translation); among poses within `tie` of it, one whose back faces
-/// a wall it stands against (the model's half depth `reach` from its centre), if any.
-fn back_to_the_wall(
-    found: &[(f32, f32, f32, Vec3)],
-    walls: &[Wall],
-    reach: f32,
-    tie: f32,
-) -> Option<(f32, f32, f32, Vec3)> {
-    let best = *found.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
-    let facing = |f: &(f32, f32, f32, Vec3)| wall_behind(walls, f.3, reach).map_or(0.0, |w| back(f.0).dot(-w.normal));
-    let backed = found
-        .iter()
-        .filter(|f| f.1 >= best.1 - tie && facing(f) > 0.7)
-        .max_by(|a, b| facing(a).total_cmp(&facing(b)).then(a.1.total_cmp(&b.1)));
-    Some(*backed.unwrap_or(&best))
-}
-
-/// Half the model's extent along its local z (front to back).
-fn half_depth(parts: &[MeshPart]) -> f32 {
-    let (lo, hi) =
-        parts.iter().flat_map(|p| &p.positions).fold((f32::MAX, f32::MIN), |(lo, hi), v| (lo.min(v.z), hi.max(v.z)));
-    if lo <= hi {
-        (hi - lo) / 2.0
-    } else {
-        0.0
-    }
-}
-
-/// Of the columns of instance `id`, the fraction where the first pixel under its lowest pixel is a wall.
-fn wall_below(inst: &Instances, id: u16) -> f32 {
-    let (w, h) = (inst.width, inst.height);
-    let is_wall = |v: u16| inst.instances.iter().any(|i| i.id == v && i.class == "wall");
-    let (mut columns, mut walls) = (0, 0);
-    for x in 0..w {
-        let Some(y) = (0..h).rev().find(|&y| inst.ids[y * w + x] == id) else { continue };
-        if y + 1 < h {
-            columns += 1;
-            walls += is_wall(inst.ids[(y + 1) * w + x]) as usize;
-        }
-    }
-    if columns == 0 {
-        0.0
-    } else {
-        walls as f32 / columns as f32
-    }
-}
-
-fn pose_at(translation: Vec3, yaw_deg: f32, scale: f32) -> Pose {
-    Pose { translation, rotation: Quat::from_rotation_y(yaw_deg.to_radians()), scale: Vec3::splat(scale) }
-}
-
 /// Whether instance `id` reaches the image's edge (so part of it may be out of frame).
 fn touches_border(inst: &Instances, id: u16) -> bool {
     let (w, h) = (inst.width, inst.height);
     (0..w).any(|x| inst.ids[x] == id || inst.ids[(h - 1) * w + x] == id)
         || (0..h).any(|y| inst.ids[y * w] == id || inst.ids[y * w + w - 1] == id)
-}
-
-/// Up to `n` of the sweep's (yaw, place, score) starts, best first, no two closer than `apart` degrees; a
-/// symmetric twin of a kept start (the same score at the same place: a cabinet turned round whose handle the
-/// sweep cannot resolve) is kept too without counting, so the wall prior can choose between them.
-fn distinct_yaws(starts: &[(f32, Vec3, f32)], n: usize, apart: f32) -> Vec<(f32, Vec3, f32)> {
-    let mut sorted = starts.to_vec();
-    sorted.sort_by(|a, b| b.2.total_cmp(&a.2));
-    let (mut kept, mut counted): (Vec<(f32, Vec3, f32)>, usize) = (vec![], 0);
-    for s in sorted {
-        let twin = |k: &(f32, Vec3, f32)| (s.2 - k.2).abs() < 1e-4 && s.1.distance(k.1) < 1e-3;
-        let far = |k: &(f32, Vec3, f32)| ((s.0 - k.0).rem_euclid(360.0) - 180.0).abs() < 180.0 - apart;
-        if kept.iter().any(twin) {
-            kept.push(s);
-        } else if counted < n && kept.iter().all(far) {
-            kept.push(s);
-            counted += 1;
-        }
-    }
-    kept
-}
-
-/// A local search of one model's pose on the floor (translation x/z and yaw) for the best sweep score.
-struct PoseSearch<'a> {
-    target: &'a SweepTarget,
-    size: f32,
-    prior: f32,
-    depth_weight: f32,
-}
-
-impl PoseSearch<'_> {
-    /// (score, iou) of `pose`.
-    fn eval(&self, renderer: &mut PoseRenderer, pose: Pose) -> Option<(f32, f32)> {
-        let (ids, d) = renderer.render(pose)?;
-        let (iou, s) = score(self.target, &ids, &d, self.size, self.depth_weight);
-        Some((s - self.prior, iou))
-    }
-
-    /// Compass search from `pose` (whose yaw is `yaw` degrees): steps of `step` metres and `yaw_step` degrees
-    /// along x, z and yaw, repeated while one improves, then halved, four times. Returns (yaw, score, iou,
-    /// translation).
-    fn compass(
-        &self,
-        renderer: &mut PoseRenderer,
-        pose: Pose,
-        mut yaw: f32,
-        mut step: f32,
-        mut yaw_step: f32,
-    ) -> Option<(f32, f32, f32, Vec3)> {
-        let (mut best, mut iou) = self.eval(renderer, pose)?;
-        let (mut t, scale) = (pose.translation, pose.scale.x);
-        for _ in 0..4 {
-            for _ in 0..4 {
-                let moves = [
-                    (Vec3::X * step, 0.0),
-                    (-Vec3::X * step, 0.0),
-                    (Vec3::Z * step, 0.0),
-                    (-Vec3::Z * step, 0.0),
-                    (Vec3::ZERO, yaw_step),
-                    (Vec3::ZERO, -yaw_step),
-                ];
-                let mut moved = false;
-                for (dt, dyaw) in moves {
-                    if let Some((s, i)) = self.eval(renderer, pose_at(t + dt, yaw + dyaw, scale)) {
-                        if s > best {
-                            (best, iou, t, yaw, moved) = (s, i, t + dt, yaw + dyaw, true);
-                        }
-                    }
-                }
-                if !moved {
-                    break;
-                }
-            }
-            step /= 2.0;
-            yaw_step /= 2.0;
-        }
-        Some((yaw, best, iou, t))
-    }
 }
 
 /// Places every furniture instance of `inst` in `scene` (whose camera is the photo's and whose `floor`

@@ -1,0 +1,116 @@
+//! Where a placed object stands: on the floor, on another object (`resting_on`), mounted on a wall (`wall_below`)
+//! or with its back to a wall (`back_to_the_wall`, the prior that breaks near-ties of the pose search).
+
+use crate::scene::{MeshPart, Scene};
+use crate::vision::Instances;
+use glam::{Quat, Vec3};
+
+/// Where an instance's points are: the floor-plane box of their 10-90 % range and the heights of their 2 % and
+/// 95 % points.
+#[derive(Clone, Copy)]
+pub(super) struct Extent {
+    pub lo: Vec3,
+    pub hi: Vec3,
+    pub bottom: f32,
+    pub top: f32,
+}
+
+/// The top of the highest other instance whose floor-plane box holds this one's centre and whose points end
+/// below this one's bottom (a lamp on a table: the lamp's thin base may be hidden, so its lowest visible points
+/// can be well above the table): what it stands on, if anything.
+pub(super) fn resting_on(e: &Extent, centre: Vec3, others: &[Extent], floor_y: f32) -> Option<f32> {
+    others
+        .iter()
+        .filter(|o| {
+            o.top > floor_y + 0.15
+                && o.top < e.bottom + 0.15
+                && (o.lo.x..=o.hi.x).contains(&centre.x)
+                && (o.lo.z..=o.hi.z).contains(&centre.z)
+        })
+        .map(|o| o.top)
+        .reduce(f32::max)
+}
+
+/// A wall of the room: a point on it, its normal into the room, its name.
+pub(super) struct Wall {
+    pub point: Vec3,
+    pub normal: Vec3,
+    pub name: String,
+}
+
+/// The scene's walls: objects named `wall*` whose surface stands upright (a rectangle facing +z, turned).
+pub(super) fn walls_of(scene: &Scene) -> Vec<Wall> {
+    scene
+        .objects
+        .iter()
+        .filter(|o| o.name.starts_with("wall"))
+        .map(|o| Wall { point: o.pose.translation, normal: o.pose.rotation * Vec3::Z, name: o.name.clone() })
+        .filter(|w| w.normal.y.abs() < 0.1)
+        .collect()
+}
+
+/// How far a model's back may stand from a wall and still count as turned to it, metres (furniture along a
+/// wall keeps a skirting board's or a radiator's distance, or a walkway's).
+const AGAINST_WALL: f32 = 0.5;
+
+/// The nearest wall within `AGAINST_WALL` of the centre's footprint edge `reach` (half the model's depth).
+pub(super) fn wall_behind(walls: &[Wall], centre: Vec3, reach: f32) -> Option<&Wall> {
+    walls
+        .iter()
+        .map(|w| (w, (centre - w.point).dot(w.normal) - reach))
+        .filter(|(_, gap)| (-0.1..AGAINST_WALL).contains(gap))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(w, _)| w)
+}
+
+/// The model's back as it stands at `yaw` degrees (its local -z).
+pub(super) fn back(yaw_deg: f32) -> Vec3 {
+    Quat::from_rotation_y(yaw_deg.to_radians()) * -Vec3::Z
+}
+
+/// The best of `found` (yaw, score, iou, translation); among poses within `tie` of it, one whose back faces
+/// a wall it stands against (the model's half depth `reach` from its centre), if any.
+pub(super) fn back_to_the_wall(
+    found: &[(f32, f32, f32, Vec3)],
+    walls: &[Wall],
+    reach: f32,
+    tie: f32,
+) -> Option<(f32, f32, f32, Vec3)> {
+    let best = *found.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let facing = |f: &(f32, f32, f32, Vec3)| wall_behind(walls, f.3, reach).map_or(0.0, |w| back(f.0).dot(-w.normal));
+    let backed = found
+        .iter()
+        .filter(|f| f.1 >= best.1 - tie && facing(f) > 0.7)
+        .max_by(|a, b| facing(a).total_cmp(&facing(b)).then(a.1.total_cmp(&b.1)));
+    Some(*backed.unwrap_or(&best))
+}
+
+/// Half the model's extent along its local z (front to back).
+pub(super) fn half_depth(parts: &[MeshPart]) -> f32 {
+    let (lo, hi) =
+        parts.iter().flat_map(|p| &p.positions).fold((f32::MAX, f32::MIN), |(lo, hi), v| (lo.min(v.z), hi.max(v.z)));
+    if lo <= hi {
+        (hi - lo) / 2.0
+    } else {
+        0.0
+    }
+}
+
+/// Of the columns of instance `id`, the fraction where the first pixel under its lowest pixel is a wall.
+pub(super) fn wall_below(inst: &Instances, id: u16) -> f32 {
+    let (w, h) = (inst.width, inst.height);
+    let is_wall = |v: u16| inst.instances.iter().any(|i| i.id == v && i.class == "wall");
+    let (mut columns, mut walls) = (0, 0);
+    for x in 0..w {
+        let Some(y) = (0..h).rev().find(|&y| inst.ids[y * w + x] == id) else { continue };
+        if y + 1 < h {
+            columns += 1;
+            walls += is_wall(inst.ids[(y + 1) * w + x]) as usize;
+        }
+    }
+    if columns == 0 {
+        0.0
+    } else {
+        walls as f32 / columns as f32
+    }
+}
