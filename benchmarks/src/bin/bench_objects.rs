@@ -18,7 +18,6 @@ use psdr_tests::furniture::{
     first_number, furnished_room, observed_symmetry, run_refinement, write_model_set, write_refinement_inputs, Item,
 };
 use psdr_tests::rooms::{room_scene, RoomSpec};
-use std::path::Path;
 use std::time::Instant;
 
 fn main() -> anyhow::Result<()> {
@@ -132,11 +131,7 @@ fn main() -> anyhow::Result<()> {
         2,
         &[],
     );
-    let out = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/objects.csv");
-    std::fs::create_dir_all(out.parent().unwrap())?;
-    std::fs::write(&out, &csv)?;
-    std::fs::write(out.with_extension("svg"), svg + "\n")?;
-    println!("wrote {} and {}", out.display(), out.with_extension("svg").display());
+    psdr_benchmarks::write_results("objects", &csv, &svg)?;
     std::fs::remove_dir_all(&dir).ok();
     Ok(())
 }

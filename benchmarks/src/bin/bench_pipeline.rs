@@ -319,12 +319,7 @@ fn main() -> anyhow::Result<()> {
         println!("kept {}", dir.display());
         return Ok(());
     }
-    let svg = chart(&csv);
-    let out = results;
-    std::fs::create_dir_all(out.parent().unwrap())?;
-    std::fs::write(&out, &csv)?;
-    std::fs::write(out.with_extension("svg"), svg + "\n")?;
-    println!("wrote {} and {}", out.display(), out.with_extension("svg").display());
+    psdr_benchmarks::write_results("pipeline", &csv, &chart(&csv))?;
     std::fs::remove_dir_all(&dir).ok();
     Ok(())
 }
