@@ -121,6 +121,7 @@ pub fn build_engine(run: &RunRef) -> Engine {
     super::vision_api::register(&mut engine, run);
     super::object_api::register(&mut engine, run);
     super::light_api::register(&mut engine, run);
+    super::material_api::register(&mut engine, run);
     super::evaluation_api::register(&mut engine, run);
 
     let r = run.clone();

@@ -33,8 +33,12 @@ fn evaluate(run: &RunRef, scene: &SceneHandle, obs: &ObsHandle, truth: &str, opt
     }
     fitted.settings.spp = spp;
     let frame = render_cpu(&SceneData::build(&fitted)?, &fitted.settings, &|_, _| {});
-    let models: Vec<(String, String)> = run.borrow().recorded["objects_init"]["placed"]
-        .as_array()
+    // Which model each placed object is (none when the geometry was given).
+    let models: Vec<(String, String)> = run
+        .borrow()
+        .recorded
+        .get("objects_init")
+        .and_then(|o| o["placed"].as_array())
         .map(|placed| {
             placed
                 .iter()
@@ -42,7 +46,13 @@ fn evaluate(run: &RunRef, scene: &SceneHandle, obs: &ObsHandle, truth: &str, opt
                 .collect()
         })
         .unwrap_or_default();
-    let errors = crate::stages::evaluate(&fitted, &truth, &models, &frame.radiance, &photo.data);
+    // The truth's albedo and object images, at the photo's size (its own camera).
+    let mut truth_view = truth.clone();
+    (truth_view.camera.width, truth_view.camera.height) = (fitted.camera.width, fitted.camera.height);
+    truth_view.settings.spp = spp;
+    truth_view.settings.max_depth = 1;
+    let truth_frame = render_cpu(&SceneData::build(&truth_view)?, &truth_view.settings, &|_, _| {});
+    let errors = crate::stages::evaluate(&fitted, &truth, &models, &frame, &truth_frame, &photo.data);
     run.borrow_mut().recorded.insert("evaluation".into(), errors.clone());
     rhai::serde::to_dynamic(errors).map_err(|e| Error::Invalid(format!("evaluate: {e}")))
 }

@@ -10,6 +10,7 @@ mod crops;
 mod engine;
 mod evaluation_api;
 mod light_api;
+mod material_api;
 mod object_api;
 mod optimize_api;
 mod run_context;

@@ -3,9 +3,11 @@
 //! is compared in the camera's frame: the room's extent across and along the view and its height, the camera's
 //! height and pitch, every ground-truth object matched to the nearest fitted object of its class (centre error
 //! relative to the camera distance, yaw relative to the camera's, height ratio, whether the model is the same),
-//! the light counts, and the render against the photo (RMSE at 1/8 size relative to the photo's mean, SSIM of
-//! the luminance at full size).
+//! the light counts, the render against the photo (RMSE at 1/8 size relative to the photo's mean, SSIM of
+//! the luminance at full size), and the albedos the fit gives each surface the truth shows (floor, walls,
+//! ceiling, every piece of furniture), pixel by pixel through both scenes' albedo images.
 
+use crate::render::Frame;
 use crate::scene::{Camera, Object, Scene};
 use crate::vision::canonical_class;
 use glam::Vec3;
@@ -192,7 +194,61 @@ pub fn ssim_luminance(a: &[f32], b: &[f32], w: usize, h: usize) -> f32 {
 
 /// The errors of `fitted` against `truth`. `models`: fitted object name -> retrieved model name (a ground-truth
 /// object's name is its model's); `render` and `photo`: RGB of the camera's size.
-pub fn evaluate(fitted: &Scene, truth: &Scene, models: &[(String, String)], render: &[f32], photo: &[f32]) -> Value {
+/// The surface a truth object belongs to for the albedo comparison: floor, wall or ceiling for the room's
+/// surfaces, the object itself for furniture, none for lights and windows.
+fn albedo_segment(o: &Object) -> Option<String> {
+    let n = o.name.to_ascii_lowercase();
+    if o.emitter.is_some() || n.contains("window") || n.contains("light") {
+        return None;
+    }
+    Some(["floor", "wall", "ceiling"].into_iter().find(|w| n.contains(w)).map_or(o.name.clone(), String::from))
+}
+
+/// Per surface the truth shows on at least 0.5 % of the pixels: the mean albedo of the fitted scene's render
+/// and of the truth's over the truth's pixels of that surface, and their distance relative to the truth's
+/// (|fitted - truth| / |truth|, RGB).
+pub fn albedo_errors(truth: &Scene, fitted_frame: &Frame, truth_frame: &Frame) -> Value {
+    let n = truth_frame.object_id.len();
+    let mut sums: Vec<(String, [f64; 3], [f64; 3], usize)> = vec![];
+    for (p, &id) in truth_frame.object_id.iter().enumerate() {
+        let Some(seg) = truth.objects.get(id as usize).and_then(albedo_segment) else { continue };
+        let k = match sums.iter().position(|s| s.0 == seg) {
+            Some(k) => k,
+            None => {
+                sums.push((seg, [0.0; 3], [0.0; 3], 0));
+                sums.len() - 1
+            }
+        };
+        for c in 0..3 {
+            sums[k].1[c] += fitted_frame.albedo[p * 3 + c] as f64;
+            sums[k].2[c] += truth_frame.albedo[p * 3 + c] as f64;
+        }
+        sums[k].3 += 1;
+    }
+    let mut worst = 0.0f64;
+    let surfaces: Vec<Value> = sums
+        .into_iter()
+        .filter(|s| s.3 * 200 >= n)
+        .map(|(seg, f, t, count)| {
+            let (f, t) = (f.map(|v| v / count as f64), t.map(|v| v / count as f64));
+            let norm = |v: [f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let err = norm([f[0] - t[0], f[1] - t[1], f[2] - t[2]]) / norm(t).max(1e-6);
+            worst = worst.max(err);
+            json!({ "surface": seg, "pixels": count, "fitted": f, "truth": t, "error_rel": err })
+        })
+        .collect();
+    json!({ "surfaces": surfaces, "worst_error_rel": worst })
+}
+
+pub fn evaluate(
+    fitted: &Scene,
+    truth: &Scene,
+    models: &[(String, String)],
+    fitted_frame: &Frame,
+    truth_frame: &Frame,
+    photo: &[f32],
+) -> Value {
+    let render = &fitted_frame.radiance;
     let (w, h) = (fitted.camera.width as usize, fitted.camera.height as usize);
     let room = (room_in_camera_frame(fitted), room_in_camera_frame(truth));
     let rel = |k: &str| -> Value {
@@ -253,6 +309,7 @@ pub fn evaluate(fitted: &Scene, truth: &Scene, models: &[(String, String)], rend
         "lights": { "fitted": lights(fitted, false), "truth": lights(truth, false),
                     "truth_windows": lights(truth, true), "fitted_windows": lights(fitted, true) },
         "image": { "rmse_rel_1_8": relative_rmse_downsampled(render, photo, w, h, 8), "ssim": ssim_luminance(render, photo, w, h) },
+        "albedo": albedo_errors(truth, fitted_frame, truth_frame),
     })
 }
 

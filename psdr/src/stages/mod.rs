@@ -2,10 +2,11 @@
 //! segmentation (`room_init`, `depth_calibration`, geometry in `point_cloud` and `plane_fit`) and the room as a
 //! scene (`room_scene`); the object stage's merging of split instances (`instance_merge`), retrieval and
 //! placement (`object_init`, with `pose_search` and `object_support`); the light stage's initial lights
-//! (`light_init`, and `window_lights` for the windows the photo shows) and radiance fit (`light_fit`); the
-//! material search over the procedural library (`material_search`); and a fitted scene's errors against a
+//! (`light_init`, and `window_lights` for the windows the photo shows) and radiance fit (`light_fit`); albedos divided out of the shading and the lights'
+//! scale that only interreflections fix (`albedo_division`); the material search over the procedural library (`material_search`); and a fitted scene's errors against a
 //! ground truth (`evaluation`).
 
+mod albedo_division;
 mod depth_calibration;
 mod evaluation;
 mod instance_merge;
@@ -21,6 +22,7 @@ mod room_init;
 mod room_scene;
 mod window_lights;
 
+pub use albedo_division::{divide_albedos, search_light_scale, LightScale, LightScaleOptions, Segment};
 pub use depth_calibration::{calibrate_relative_depth, DepthCalibration};
 pub use evaluation::{evaluate, relative_rmse_downsampled, room_in_camera_frame, ssim_luminance};
 pub use instance_merge::{merge_split_instances, MergedInstance};

@@ -1,0 +1,106 @@
+//! Albedos from shading in scripts (`stages::albedo_division`): `divide_albedos(s, photo, segments, #{rounds,
+//! spp})` and `light_scale_search(s, photo, segments, #{range, steps, rounds, spp, downsample})`, where
+//! `segments` maps a homogeneous material's name to the mask of the photo's pixels that show it. Both change
+//! the scene in place; the search is recorded in result.json as `light_scale` and returned.
+
+use super::engine::{rhai_err, Rr, RunRef};
+use super::scene_api::SceneHandle;
+use crate::error::Error;
+use crate::loss::Tensor;
+use crate::stages::{divide_albedos, search_light_scale, LightScaleOptions, Segment};
+use rhai::{Dynamic, Engine, Map};
+
+fn number(what: &str, k: &str, v: &Dynamic) -> crate::Result<f64> {
+    v.as_float()
+        .or_else(|_| v.as_int().map(|i| i as f64))
+        .map_err(|_| Error::Invalid(format!("{what}: '{k}' must be a number")))
+}
+
+fn segments(what: &str, scene: &SceneHandle, photo: &Tensor, map: &Map) -> crate::Result<(Vec<f32>, Vec<Segment>)> {
+    let img = photo.value();
+    let (w, h) = (scene.0.camera.width as usize, scene.0.camera.height as usize);
+    if (img.width, img.height, img.channels) != (w, h, 3) {
+        return Err(Error::Invalid(format!(
+            "{what}: the photo is {}x{}x{} but the scene's camera renders {w}x{h} RGB",
+            img.width, img.height, img.channels
+        )));
+    }
+    let mut out = vec![];
+    for (name, mask) in map {
+        let material = scene.0.materials.iter().position(|m| m.name == name.as_str()).ok_or_else(|| {
+            Error::Invalid(format!("{what}: the scene has no material '{name}' (segments map material names to masks)"))
+        })?;
+        let mask = mask
+            .clone()
+            .try_cast::<Tensor>()
+            .ok_or_else(|| Error::Invalid(format!("{what}: the segment '{name}' is not a mask (a tensor)")))?;
+        let m = mask.value();
+        if (m.width, m.height) != (w, h) {
+            return Err(Error::Invalid(format!(
+                "{what}: the mask of '{name}' is {}x{}, not {w}x{h}",
+                m.width, m.height
+            )));
+        }
+        out.push(Segment { material, mask: m.data.iter().step_by(m.channels).copied().collect() });
+    }
+    Ok((img.data.clone(), out))
+}
+
+fn divide(scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<()> {
+    let (mut rounds, mut spp) = (3usize, 32u32);
+    for (k, v) in opts {
+        let n = number("divide_albedos", k, v)?;
+        match k.as_str() {
+            "rounds" => rounds = n.max(0.0) as usize,
+            "spp" => spp = n.max(1.0) as u32,
+            other => return Err(Error::Invalid(format!("divide_albedos: unknown option '{other}' (rounds, spp)"))),
+        }
+    }
+    let (photo, segs) = segments("divide_albedos", scene, photo, map)?;
+    divide_albedos(&mut scene.0, &photo, &segs, rounds, spp)
+}
+
+fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<Map> {
+    let mut o = LightScaleOptions::default();
+    for (k, v) in opts {
+        let what = "light_scale_search";
+        match k.as_str() {
+            "range" => {
+                let r =
+                    v.clone().into_array().map_err(|_| Error::Invalid(format!("{what}: 'range' is [low, high]")))?;
+                let f = |i: usize| r.get(i).map(|x| number(what, "range", x)).unwrap_or(Ok(f64::NAN));
+                o.range = (f(0)? as f32, f(1)? as f32);
+            }
+            "steps" => o.steps = number(what, k, v)?.max(0.0) as usize,
+            "rounds" => o.rounds = number(what, k, v)?.max(0.0) as usize,
+            "spp" => o.spp = number(what, k, v)?.max(1.0) as u32,
+            "downsample" => o.downsample = number(what, k, v)?.max(1.0) as usize,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "{what}: unknown option '{other}' (range, steps, rounds, spp, downsample)"
+                )))
+            }
+        }
+    }
+    let (photo, segs) = segments("light_scale_search", scene, photo, map)?;
+    let found = search_light_scale(&mut scene.0, &photo, &segs, &o)?;
+    let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
+    run.borrow_mut().recorded.insert("light_scale".into(), v.clone());
+    rhai::serde::to_dynamic(v)
+        .map_err(|e| Error::Invalid(e.to_string()))?
+        .try_cast::<Map>()
+        .ok_or_else(|| Error::Invalid("light_scale_search: result is not a map".into()))
+}
+
+pub fn register(engine: &mut Engine, run: &RunRef) {
+    engine.register_fn("divide_albedos", |s: &mut SceneHandle, photo: Tensor, segments: Map, opts: Map| -> Rr<()> {
+        divide(s, &photo, &segments, &opts).map_err(rhai_err)
+    });
+    let r = run.clone();
+    engine.register_fn(
+        "light_scale_search",
+        move |s: &mut SceneHandle, photo: Tensor, segments: Map, opts: Map| -> Rr<Map> {
+            scale_search(&r, s, &photo, &segments, &opts).map_err(rhai_err)
+        },
+    );
+}

@@ -1,0 +1,188 @@
+//! Albedos from shading, and the one thing shading cannot tell: how bright the lights are.
+//!
+//! `divide_albedos`: a surface's colour in the photo is its albedo times the light reaching it, so each
+//! segment's homogeneous albedo is multiplied by the photo's mean colour over the render's there, a few rounds
+//! so that interreflections settle (the light reaching one surface depends on the others' albedos).
+//!
+//! `search_light_scale`: scaling every light by s and dividing the albedos anew reproduces each segment's mean
+//! colour for any s; only interreflections tell s apart (light bounced off a surface carries its albedo once
+//! more), and they do so per colour channel. The scale is searched on a log grid over a range, each point
+//! with the albedos divided anew, scored by the L1 distance to the photo at 1/downsample size per channel; per
+//! channel the best grid point, refined by a parabola through its neighbours. Albedos are clamped to
+//! 0.01..0.95, so a scale that would need brighter surfaces shows up as a worse fit, not a wrong albedo.
+
+use crate::error::{Error, Result};
+use crate::render::{render_cpu, SceneData};
+use crate::scene::{Color, Scene};
+use glam::Vec3;
+
+/// A homogeneous material and the photo's pixels that show it (weights 0..1).
+#[derive(Clone, Debug)]
+pub struct Segment {
+    pub material: usize,
+    pub mask: Vec<f32>,
+}
+
+/// Albedo bounds of the division (a real surface neither absorbs nor reflects everything).
+const ALBEDO_RANGE: (f32, f32) = (0.01, 0.95);
+
+fn mean_colour(img: &[f32], mask: &[f32]) -> Vec3 {
+    let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+    for (p, &m) in mask.iter().enumerate() {
+        if m > 0.0 {
+            sum += m * Vec3::new(img[3 * p], img[3 * p + 1], img[3 * p + 2]);
+            weight += m;
+        }
+    }
+    sum / weight.max(1e-6)
+}
+
+fn check(scene: &Scene, photo: &[f32], segments: &[Segment]) -> Result<()> {
+    let n = (scene.camera.width * scene.camera.height) as usize;
+    if photo.len() != 3 * n {
+        return Err(Error::Invalid(format!(
+            "albedo division: the photo has {} values, the scene's camera renders {n} RGB pixels",
+            photo.len()
+        )));
+    }
+    for s in segments {
+        let m = scene
+            .materials
+            .get(s.material)
+            .ok_or_else(|| Error::Invalid(format!("albedo division: no material {} in the scene", s.material)))?;
+        if !matches!(m.albedo, Color::Constant(_)) {
+            return Err(Error::Invalid(format!("albedo division: material '{}' has a textured albedo", m.name)));
+        }
+        if s.mask.len() != n {
+            return Err(Error::Invalid(format!("albedo division: the mask of '{}' is not the photo's size", m.name)));
+        }
+        if s.mask.iter().sum::<f32>() <= 0.0 {
+            return Err(Error::Invalid(format!("albedo division: the mask of '{}' is empty", m.name)));
+        }
+    }
+    Ok(())
+}
+
+fn render(scene: &Scene, spp: u32, seed: u32) -> Result<Vec<f32>> {
+    let mut settings = scene.settings.clone();
+    (settings.spp, settings.seed) = (spp, seed);
+    Ok(render_cpu(&SceneData::build(scene)?, &settings, &|_, _| {}).radiance)
+}
+
+/// `rounds` rounds of albedo = albedo x photo mean / render mean per segment, renders at `spp`.
+pub fn divide_albedos(scene: &mut Scene, photo: &[f32], segments: &[Segment], rounds: usize, spp: u32) -> Result<()> {
+    check(scene, photo, segments)?;
+    let want: Vec<Vec3> = segments.iter().map(|s| mean_colour(photo, &s.mask)).collect();
+    for round in 0..rounds {
+        let img = render(scene, spp, scene.settings.seed.wrapping_add(round as u32))?;
+        for (s, want) in segments.iter().zip(&want) {
+            let got = mean_colour(&img, &s.mask).max(Vec3::splat(1e-4));
+            if let Color::Constant(a) = &mut scene.materials[s.material].albedo {
+                *a = (*a * *want / got).clamp(Vec3::splat(ALBEDO_RANGE.0), Vec3::splat(ALBEDO_RANGE.1));
+            }
+        }
+    }
+    Ok(())
+}
+
+#[derive(Clone, Debug)]
+pub struct LightScaleOptions {
+    /// Factors searched, lowest and highest (log-spaced).
+    pub range: (f32, f32),
+    pub steps: usize,
+    /// Division rounds at each factor.
+    pub rounds: usize,
+    pub spp: u32,
+    pub downsample: usize,
+}
+
+impl Default for LightScaleOptions {
+    fn default() -> Self {
+        LightScaleOptions { range: (0.5, 2.0), steps: 9, rounds: 3, spp: 32, downsample: 8 }
+    }
+}
+
+/// What the search tried and chose.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct LightScale {
+    pub factors: Vec<f32>,
+    /// Per factor, the L1 distance to the photo at 1/downsample size per channel (mean over cells).
+    pub errors: Vec<[f64; 3]>,
+    /// Per channel, the factor applied to every light's radiance.
+    pub chosen: [f32; 3],
+}
+
+/// Mean |a - b| per channel after k x k box downsampling.
+fn l1_downsampled(a: &[f32], b: &[f32], w: usize, h: usize, k: usize) -> [f64; 3] {
+    let (sw, sh) = ((w / k).max(1), (h / k).max(1));
+    let mut e = [0.0f64; 3];
+    for y in 0..sh {
+        for x in 0..sw {
+            let mut d = [0.0f64; 3];
+            let mut n = 0.0f64;
+            for yy in y * k..((y + 1) * k).min(h) {
+                for xx in x * k..((x + 1) * k).min(w) {
+                    let p = 3 * (yy * w + xx);
+                    (0..3).for_each(|c| d[c] += (a[p + c] - b[p + c]) as f64);
+                    n += 1.0;
+                }
+            }
+            (0..3).for_each(|c| e[c] += (d[c] / n).abs() / (sw * sh) as f64);
+        }
+    }
+    e
+}
+
+/// Searches the lights' common scale per channel (see the module), leaves the scene at the chosen one with
+/// its albedos divided, and returns what it tried.
+pub fn search_light_scale(
+    scene: &mut Scene,
+    photo: &[f32],
+    segments: &[Segment],
+    opts: &LightScaleOptions,
+) -> Result<LightScale> {
+    check(scene, photo, segments)?;
+    let (lo, hi) = opts.range;
+    if !(lo > 0.0 && hi > lo && lo.is_finite() && hi.is_finite()) || opts.steps < 3 {
+        return Err(Error::Invalid(format!(
+            "light scale search: the range must be 0 < low < high and steps at least 3 (got {lo}..{hi}, {})",
+            opts.steps
+        )));
+    }
+    let lights: Vec<usize> = (0..scene.objects.len()).filter(|&i| scene.objects[i].emitter.is_some()).collect();
+    let base: Vec<Vec3> = lights.iter().map(|&i| scene.objects[i].emitter.unwrap().radiance).collect();
+    let set = |scene: &mut Scene, f: Vec3| {
+        for (&i, b) in lights.iter().zip(&base) {
+            scene.objects[i].emitter.as_mut().unwrap().radiance = *b * f;
+        }
+    };
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let mut out = LightScale { factors: vec![], errors: vec![], chosen: [1.0; 3] };
+    if lights.is_empty() {
+        return Ok(out);
+    }
+    for k in 0..opts.steps {
+        let f = lo * (hi / lo).powf(k as f32 / (opts.steps - 1) as f32);
+        set(scene, Vec3::splat(f));
+        divide_albedos(scene, photo, segments, opts.rounds, opts.spp)?;
+        let img = render(scene, opts.spp, scene.settings.seed)?;
+        out.factors.push(f);
+        out.errors.push(l1_downsampled(&img, photo, w, h, opts.downsample.max(1)));
+    }
+    for c in 0..3 {
+        let e = |k: usize| out.errors[k][c];
+        let k = (0..out.factors.len()).min_by(|&a, &b| e(a).total_cmp(&e(b))).unwrap_or(0);
+        let mut x = out.factors[k].ln();
+        if k > 0 && k + 1 < out.factors.len() {
+            let curve = e(k - 1) - 2.0 * e(k) + e(k + 1);
+            if curve > 0.0 {
+                let step = (x - out.factors[k - 1].ln()) as f64;
+                x += (0.5 * step * (e(k - 1) - e(k + 1)) / curve) as f32;
+            }
+        }
+        out.chosen[c] = x.exp();
+    }
+    set(scene, Vec3::from_array(out.chosen));
+    divide_albedos(scene, photo, segments, opts.rounds, opts.spp)?;
+    Ok(out)
+}
