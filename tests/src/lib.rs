@@ -10,6 +10,7 @@ use psdr::scene::{Camera, Emitter, Material, MeshPart, Object, Pose, RenderSetti
 use std::path::PathBuf;
 
 pub mod furniture;
+pub mod known_geometry;
 pub mod rooms;
 
 /// An empty scene seen by a look-at camera.

@@ -26,11 +26,22 @@ fn inside(mask: &Image) -> Result<Vec<bool>> {
 /// The largest-area axis-aligned rectangle of inside pixels (maximal rectangle in a histogram, row by row,
 /// O(W·H)); None for an empty mask. Ties: the first found scanning from the top.
 pub fn largest_rect(mask: &Image) -> Result<Option<Rect>> {
+    best_rect(mask, |r| (r.w * r.h, 0))
+}
+
+/// The rectangle of inside pixels with the largest square inside it (ties: the larger area): what a texture
+/// descriptor wants, where the largest-area rectangle can be a strip one row high.
+pub fn squarest_rect(mask: &Image) -> Result<Option<Rect>> {
+    best_rect(mask, |r| (r.w.min(r.h), r.w * r.h))
+}
+
+/// The maximal rectangle of inside pixels with the highest `key`.
+fn best_rect(mask: &Image, key: impl Fn(&Rect) -> (usize, usize)) -> Result<Option<Rect>> {
     let ins = inside(mask)?;
     let (w, h) = (mask.width, mask.height);
     let mut heights = vec![0usize; w];
     let mut best: Option<Rect> = None;
-    let area = |r: &Option<Rect>| r.map_or(0, |r| r.w * r.h);
+    let area = |r: &Option<Rect>| r.as_ref().map_or((0, 0), &key);
     for y in 0..h {
         for x in 0..w {
             heights[x] = if ins[y * w + x] { heights[x] + 1 } else { 0 };

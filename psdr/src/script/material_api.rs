@@ -2,12 +2,18 @@
 //! spp})` and `light_scale_search(s, photo, segments, #{range, steps, rounds, spp, downsample})`, where
 //! `segments` maps a homogeneous material's name to the mask of the photo's pixels that show it. Both change
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
+//! `texture_surfaces(s, photo, segments, #{spp, top_k, colour_weight, min_contrast, min_crop, max_crop,
+//! samples, library_size})` gives the segments that show a texture a procedural material from the library
+//! (`stages::surface_textures`), recorded as `surface_textures` (crops, top matches, decisions).
 
 use super::engine::{rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
 use crate::error::Error;
 use crate::loss::Tensor;
-use crate::stages::{divide_albedos, search_light_scale, LightScaleOptions, Segment};
+use crate::stages::{
+    divide_albedos, library_textures, search_light_scale, texture_surfaces, LightScaleOptions, Segment,
+    SurfaceTextureOptions,
+};
 use rhai::{Dynamic, Engine, Map};
 
 fn number(what: &str, k: &str, v: &Dynamic) -> crate::Result<f64> {
@@ -92,7 +98,45 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
         .ok_or_else(|| Error::Invalid("light_scale_search: result is not a map".into()))
 }
 
+fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<Dynamic> {
+    let what = "texture_surfaces";
+    let mut o = SurfaceTextureOptions::default();
+    let mut library_size = 128usize;
+    for (k, v) in opts {
+        let n = number(what, k, v)?;
+        match k.as_str() {
+            "spp" => o.spp = n.max(1.0) as u32,
+            "top_k" => o.top_k = n.max(1.0) as usize,
+            "colour_weight" => o.colour_weight = n.max(0.0) as f32,
+            "min_contrast" => o.min_contrast = n.max(0.0) as f32,
+            "min_crop" => o.min_crop = n.max(24.0) as usize,
+            "max_crop" => o.max_crop = n.max(24.0) as usize,
+            "samples" => o.samples = n.clamp(1.0, 8.0) as usize,
+            "library_size" => library_size = n.clamp(16.0, 1024.0) as usize,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "{what}: unknown option '{other}' (spp, top_k, colour_weight, min_contrast, min_crop, max_crop, \
+                     samples, library_size)"
+                )))
+            }
+        }
+    }
+    let (photo, segs) = segments(what, scene, photo, map)?;
+    let library = library_textures(library_size)?;
+    let found = texture_surfaces(&mut scene.0, &photo, &segs, &library, &o)?;
+    let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
+    run.borrow_mut().recorded.insert("surface_textures".into(), v.clone());
+    rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
+}
+
 pub fn register(engine: &mut Engine, run: &RunRef) {
+    let r = run.clone();
+    engine.register_fn(
+        "texture_surfaces",
+        move |s: &mut SceneHandle, photo: Tensor, segments: Map, opts: Map| -> Rr<Dynamic> {
+            textures(&r, s, &photo, &segments, &opts).map_err(rhai_err)
+        },
+    );
     engine.register_fn("divide_albedos", |s: &mut SceneHandle, photo: Tensor, segments: Map, opts: Map| -> Rr<()> {
         divide(s, &photo, &segments, &opts).map_err(rhai_err)
     });

@@ -18,7 +18,7 @@ mod scene_api;
 mod tensor_api;
 mod vision_api;
 
-pub use crops::{largest_rect, load_rects, random_crops, Rect};
+pub use crops::{largest_rect, load_rects, random_crops, squarest_rect, Rect};
 pub use engine::{build_engine, overrides, MAX_OPERATIONS};
 pub use run_context::{RunContext, RunOptions};
 pub use scene_api::{read_image, write_image, SceneHandle};

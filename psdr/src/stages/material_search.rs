@@ -35,18 +35,60 @@ pub fn library_textures(size: usize) -> Result<Vec<LibraryTexture>> {
 
 /// A `size` x `size` patch of a surface whose uv spans 0..1 across it, seen through `scale` and `rotation_deg`.
 pub fn transformed_view(tex: &LibraryTexture, scale: f32, rotation_deg: f32, size: usize) -> Image {
+    view_at(tex, scale, rotation_deg, &UvGrid::unit_square(size))
+}
+
+/// The surface's uv under each pixel of a crop (`samples` per pixel, averaged: a pixel's footprint), as the
+/// camera sees it: perspective and all.
+#[derive(Clone, Debug)]
+pub struct UvGrid {
+    pub width: usize,
+    pub height: usize,
+    /// Row-major pixels, each with its samples' uvs.
+    pub uvs: Vec<Vec<[f64; 2]>>,
+}
+
+impl UvGrid {
+    /// A `size` x `size` crop of a surface facing the camera, uv 0..1 across it (v up the image).
+    pub fn unit_square(size: usize) -> UvGrid {
+        let uvs = (0..size * size)
+            .map(|p| vec![[((p % size) as f64 + 0.5) / size as f64, 1.0 - ((p / size) as f64 + 0.5) / size as f64]])
+            .collect();
+        UvGrid { width: size, height: size, uvs }
+    }
+
+    /// The largest extent of the uvs along u or v: how much surface the crop shows (from the pixels' mean uvs,
+    /// widened by half a pixel at each end: a unit square's span is 1).
+    pub fn span(&self) -> f64 {
+        let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+        for samples in self.uvs.iter().filter(|s| !s.is_empty()) {
+            let n = samples.len() as f64;
+            for k in 0..2 {
+                let c = samples.iter().map(|uv| uv[k]).sum::<f64>() / n;
+                (lo[k], hi[k]) = (lo[k].min(c), hi[k].max(c));
+            }
+        }
+        let pixels = self.width.max(self.height).max(2) as f64;
+        ((hi[0] - lo[0]).max(hi[1] - lo[1]) * pixels / (pixels - 1.0)).max(1e-9)
+    }
+}
+
+/// The library texture as the crop's pixels would show it through the transform.
+pub fn view_at(tex: &LibraryTexture, scale: f32, rotation_deg: f32, grid: &UvGrid) -> Image {
     let view = TextureView { width: tex.size, height: tex.size, channels: 3, texels: &tex.albedo };
     let t = TextureTransform { scale: [scale as f64; 2], rotation_deg: rotation_deg as f64, offset: [0.0, 0.0] };
-    let mut data = Vec::with_capacity(size * size * 3);
+    let mut data = Vec::with_capacity(grid.width * grid.height * 3);
     let mut px = [0.0f64; 3];
-    for y in 0..size {
-        for x in 0..size {
-            let uv = [(x as f64 + 0.5) / size as f64, 1.0 - (y as f64 + 0.5) / size as f64];
-            t.lookup(&view, uv, &mut px);
-            data.extend(px.iter().map(|v| *v as f32));
+    for samples in &grid.uvs {
+        let mut sum = [0.0f64; 3];
+        for uv in samples {
+            t.lookup(&view, *uv, &mut px);
+            (0..3).for_each(|c| sum[c] += px[c]);
         }
+        let n = samples.len().max(1) as f64;
+        data.extend(sum.iter().map(|v| (*v / n) as f32));
     }
-    Image { width: size, height: size, channels: 3, data }
+    Image { width: grid.width, height: grid.height, channels: 3, data }
 }
 
 /// One candidate and how well it matches.
@@ -55,9 +97,11 @@ pub struct MaterialMatch {
     pub name: String,
     pub scale: f32,
     pub rotation_deg: f32,
-    /// Texture descriptor loss + `colour_weight` x relative mean-colour distance + |ln| of the fineness ratio
-    /// (lower is better).
+    /// Texture descriptor loss (at the crop's colour and contrast) + `colour_weight` x relative mean-colour
+    /// distance + |ln| of the fineness ratio + |ln| of the contrast ratio (lower is better).
     pub distance: f32,
+    /// The descriptor loss alone.
+    pub texture_distance: f32,
 }
 
 fn mean(img: &Image) -> [f32; 3] {
@@ -89,13 +133,40 @@ fn fineness(img: &Image) -> f32 {
     g / ((w - 1) * (h - 1)) as f32 / sd
 }
 
-fn distance(crop: &Tensor, crop_mean: [f32; 3], crop_fineness: f32, view: Image, colour_weight: f32) -> Result<f32> {
+/// Standard deviation of the luminance over its mean.
+pub fn contrast(img: &Image) -> f32 {
+    let c = img.channels;
+    let lum: Vec<f32> = img.data.chunks(c).map(|p| p.iter().sum::<f32>() / c as f32).collect();
+    let n = lum.len().max(1) as f32;
+    let m = lum.iter().sum::<f32>() / n;
+    (lum.iter().map(|v| (v - m).powi(2)).sum::<f32>() / n).sqrt() / m.max(1e-6)
+}
+
+/// (total distance, descriptor loss of the view at the crop's colour and contrast). The descriptor sees
+/// colour (its filters are zero-mean over all channels together, not per channel), which would dominate its
+/// energy, so the view is first brought to the crop's mean colour (per-channel gain, as it is applied) and
+/// contrast; colour, contrast and fineness are then judged apart, each as a relative or log-ratio error.
+fn distance(crop: &Tensor, crop_stats: &CropStats, mut view: Image, colour_weight: f32) -> Result<(f32, f32)> {
     let m = mean(&view);
+    let crop_mean = crop_stats.mean;
     let norm = crop_mean.iter().map(|v| v * v).sum::<f32>().sqrt().max(1e-4);
     let colour = (0..3).map(|c| (m[c] - crop_mean[c]).powi(2)).sum::<f32>().sqrt() / norm;
-    let scale = (fineness(&view).max(1e-6) / crop_fineness.max(1e-6)).ln().abs();
+    let scale = (fineness(&view).max(1e-6) / crop_stats.fineness.max(1e-6)).ln().abs();
+    let view_contrast = contrast(&view).max(1e-6);
+    let contrast_error = (view_contrast / crop_stats.contrast.max(1e-6)).ln().abs();
+    let k = crop_stats.contrast / view_contrast;
+    for p in view.data.chunks_mut(3) {
+        (0..3).for_each(|c| p[c] = crop_mean[c] + (p[c] - m[c]) * crop_mean[c] / m[c].max(1e-4) * k);
+    }
     let tex = texture_loss(&Tensor::constant(view), crop)?.item().unwrap_or(f32::INFINITY);
-    Ok(tex + colour_weight * colour + scale)
+    Ok((tex + colour_weight * colour + scale + contrast_error, tex))
+}
+
+/// What the distance needs of the crop, computed once.
+struct CropStats {
+    mean: [f32; 3],
+    fineness: f32,
+    contrast: f32,
 }
 
 /// Ranks `library` for `crop` (albedo, linear RGB, square is best): the best `top_k` with their transforms.
@@ -106,18 +177,46 @@ pub fn search_materials(
     colour_weight: f32,
 ) -> Result<Vec<MaterialMatch>> {
     let size = crop.width.min(crop.height);
+    search_materials_on(crop, &UvGrid::unit_square(size), library, top_k, colour_weight)
+}
+
+/// Ranks `library` for `crop` seen through `grid` (the surface's uv under each crop pixel, same size as the
+/// crop): the best `top_k`, each with the uv transform (scale in repeats per uv unit, rotation) that makes the
+/// surface look most like the crop. Scales are searched from 0.5 to 8 repeats across the crop's uv span.
+pub fn search_materials_on(
+    crop: &Image,
+    grid: &UvGrid,
+    library: &[LibraryTexture],
+    top_k: usize,
+    colour_weight: f32,
+) -> Result<Vec<MaterialMatch>> {
+    if (grid.width, grid.height) != (crop.width, crop.height) || crop.channels != 3 {
+        return Err(Error::Invalid(format!(
+            "material search: the crop is {}x{}x{}, its uv grid {}x{}",
+            crop.width, crop.height, crop.channels, grid.width, grid.height
+        )));
+    }
+    let unit = 1.0 / grid.span() as f32;
     let crop_t = Tensor::constant(crop.clone());
-    let crop_mean = mean(crop);
-    let crop_fineness = fineness(crop);
-    // First pass: a few scales, no rotation.
+    let stats = CropStats { mean: mean(crop), fineness: fineness(crop), contrast: contrast(crop) };
+    let score = |tex: &LibraryTexture, scale: f32, rotation: f32| {
+        distance(&crop_t, &stats, view_at(tex, scale * unit, rotation, grid), colour_weight)
+    };
+    // First pass: scales a factor sqrt(2) apart, no rotation.
     let mut first: Vec<MaterialMatch> = vec![];
     for tex in library {
-        let mut best = MaterialMatch { name: tex.name.clone(), scale: 1.0, rotation_deg: 0.0, distance: f32::INFINITY };
-        for scale in [1.0f32, 2.0, 4.0] {
-            let d =
-                distance(&crop_t, crop_mean, crop_fineness, transformed_view(tex, scale, 0.0, size), colour_weight)?;
+        let mut best = MaterialMatch {
+            name: tex.name.clone(),
+            scale: 1.0,
+            rotation_deg: 0.0,
+            distance: f32::INFINITY,
+            texture_distance: f32::INFINITY,
+        };
+        for k in 0..9 {
+            let scale = 0.5 * 2f32.powf(k as f32 / 2.0);
+            let (d, t) = score(tex, scale, 0.0)?;
             if d < best.distance {
-                (best.scale, best.distance) = (scale, d);
+                (best.scale, best.distance, best.texture_distance) = (scale, d, t);
             }
         }
         first.push(best);
@@ -133,15 +232,9 @@ pub fn search_materials(
         for k in 0..13 {
             let scale = 0.5 * 2f32.powf(k as f32 / 4.0);
             for rotation in [-45.0f32, 0.0, 45.0, 90.0] {
-                let d = distance(
-                    &crop_t,
-                    crop_mean,
-                    crop_fineness,
-                    transformed_view(tex, scale, rotation, size),
-                    colour_weight,
-                )?;
+                let (d, t) = score(tex, scale, rotation)?;
                 if d < best.distance {
-                    (best.scale, best.rotation_deg, best.distance) = (scale, rotation, d);
+                    (best.scale, best.rotation_deg, best.distance, best.texture_distance) = (scale, rotation, d, t);
                 }
             }
         }
@@ -149,5 +242,6 @@ pub fn search_materials(
     }
     out.sort_by(|a, b| a.distance.total_cmp(&b.distance));
     out.truncate(top_k);
+    out.iter_mut().for_each(|m| m.scale *= unit);
     Ok(out)
 }

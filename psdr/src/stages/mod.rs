@@ -3,7 +3,8 @@
 //! scene (`room_scene`); the object stage's merging of split instances (`instance_merge`), retrieval and
 //! placement (`object_init`, with `pose_search` and `object_support`); the light stage's initial lights
 //! (`light_init`, and `window_lights` for the windows the photo shows) and radiance fit (`light_fit`); albedos divided out of the shading and the lights'
-//! scale that only interreflections fix (`albedo_division`); the material search over the procedural library (`material_search`); and a fitted scene's errors against a
+//! scale that only interreflections fix (`albedo_division`); the material search over the procedural library (`material_search`) and its
+//! application to the surfaces a photo shows (`surface_textures`); and a fitted scene's errors against a
 //! ground truth (`evaluation`).
 
 mod albedo_division;
@@ -20,6 +21,7 @@ mod point_cloud;
 mod pose_search;
 mod room_init;
 mod room_scene;
+mod surface_textures;
 mod window_lights;
 
 pub use albedo_division::{divide_albedos, search_light_scale, LightScale, LightScaleOptions, Segment};
@@ -28,7 +30,10 @@ pub use evaluation::{evaluate, relative_rmse_downsampled, room_in_camera_frame, 
 pub use instance_merge::{merge_split_instances, MergedInstance};
 pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use light_init::{init_lights, LightInitOptions};
-pub use material_search::{library_textures, search_materials, transformed_view, LibraryTexture, MaterialMatch};
+pub use material_search::{
+    contrast, library_textures, search_materials, search_materials_on, transformed_view, view_at, LibraryTexture,
+    MaterialMatch, UvGrid,
+};
 pub use object_init::{
     init_objects, init_objects_with, AppearanceCue, Candidate, ObjectInitOptions, ObjectPlacement, SkippedInstance,
 };
@@ -36,4 +41,5 @@ pub use plane_fit::{fit_plane, fit_plane_in_depth, ransac_plane, symmetric_eigen
 pub use point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};
 pub use room_init::{init_room, RoomEstimate, RoomInitOptions};
 pub use room_scene::{room_scene, room_summary, ROOM_SURFACES};
+pub use surface_textures::{texture_surfaces, SurfaceTexture, SurfaceTextureOptions};
 pub use window_lights::add_visible_windows;

@@ -19,6 +19,8 @@ pub fn room_scene(e: &RoomEstimate, fov_y_deg: f32, width: u32, height: u32) -> 
     let rect = |name: &str, material: usize, t: Vec3, rot_deg: [f32; 3], emitter: Option<Emitter>, size: f32| {
         let mut part = rectangle_mesh(size, size);
         part.material = material;
+        // uv in metres: a texture's uv scale is its repeats per metre.
+        part.uvs.iter_mut().flatten().for_each(|uv| *uv *= size);
         let r = rot_deg.map(f32::to_radians);
         Object {
             name: name.to_string(),

@@ -1,0 +1,269 @@
+//! Procedural materials for the surfaces a photo shows (PSDR-Room, "Material and lighting stage": crops, the
+//! material search and the texture-transform search), after the homogeneous fit:
+//!
+//! 1. the crop: the rectangle inside the segment's mask with the largest square in it (cut to at most
+//!    `max_crop` pixels and twice its width a side, centred);
+//! 2. the crop as albedo: the photo divided by the shading the fitted lights give there (photo x albedo /
+//!    render, per channel: the render is the fitted homogeneous albedo times that shading);
+//! 3. the surface's uv under every crop pixel (`samples` x `samples` rays per pixel against the fitted scene),
+//!    so candidates are compared as the camera sees them, perspective and all, and a chosen scale is the
+//!    surface's own uv transform;
+//! 4. a crop whose luminance varies less than `min_contrast` about its local mean (standard deviation over
+//!    a box blur an eighth of the crop wide: texture, not the smooth shading residue a fit leaves) is flat:
+//!    it stays homogeneous. Otherwise the library is searched (`search_materials_on`: texture descriptor, mean colour,
+//!    fineness; scales and rotations) and the best match replaces the homogeneous albedo when it reproduces
+//!    the crop's local contrast at least twice as closely as a flat colour does (|contrast(view) -
+//!    contrast(crop)| below half the crop's: the flat colour's error is the whole contrast). The descriptor ranks
+//!    materials but cannot make this call: it sees colour, which dominates its energy on a plank floor;
+//! 5. applied as the library material's albedo baked at default parameters, tinted per channel so its mean is
+//!    the fitted albedo (the lights' fit stays valid), with the found uv scale and rotation.
+//!
+//! Every segment's crop, top matches and decision are returned (result.json keeps them as alternatives).
+
+use super::albedo_division::Segment;
+use super::material_search::{search_materials_on, view_at, LibraryTexture, MaterialMatch, UvGrid};
+use crate::error::{Error, Result};
+use crate::loss::Image;
+use crate::render::bvh::trace_closest;
+use crate::render::camera::camera_ray;
+use crate::render::layout::SHADING_HAS_UVS;
+use crate::render::{render_cpu, SceneData};
+use crate::scene::{Color, Scene, Texture, UvTransform};
+use crate::script::squarest_rect;
+use glam::{Vec2, Vec3};
+
+#[derive(Clone, Debug)]
+pub struct SurfaceTextureOptions {
+    /// Samples per pixel of the render the shading comes from.
+    pub spp: u32,
+    pub top_k: usize,
+    pub colour_weight: f32,
+    /// Crops whose luminance varies less than this about its local mean stay homogeneous.
+    pub min_contrast: f32,
+    /// Crops smaller than this (pixels, either side; the texture descriptor needs 24) are not searched; larger
+    /// ones are cut to `max_crop`.
+    pub min_crop: usize,
+    pub max_crop: usize,
+    /// Rays per pixel side for the uv grid (a pixel's footprint).
+    pub samples: usize,
+}
+
+impl Default for SurfaceTextureOptions {
+    fn default() -> Self {
+        SurfaceTextureOptions {
+            spp: 32,
+            top_k: 3,
+            colour_weight: 1.0,
+            min_contrast: 0.08,
+            min_crop: 24,
+            max_crop: 64,
+            samples: 3,
+        }
+    }
+}
+
+/// What the stage saw and did for one segment.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SurfaceTexture {
+    pub material: String,
+    /// x, y, width, height of the crop in the photo.
+    pub crop: Option<[usize; 4]>,
+    /// Local contrast (see `local_contrast`) of the crop, and of the best match seen through its transform.
+    pub contrast: f32,
+    pub match_contrast: Option<f32>,
+    /// The best library materials, best first, with their uv transforms.
+    pub matches: Vec<MaterialMatch>,
+    /// The one applied, if any.
+    pub chosen: Option<MaterialMatch>,
+    /// Why it stayed homogeneous, or what was applied.
+    pub decision: String,
+}
+
+/// Runs steps 1-5 on every segment (see the module) and changes the chosen materials in `scene`.
+pub fn texture_surfaces(
+    scene: &mut Scene,
+    photo: &[f32],
+    segments: &[Segment],
+    library: &[LibraryTexture],
+    opts: &SurfaceTextureOptions,
+) -> Result<Vec<SurfaceTexture>> {
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    if photo.len() != w * h * 3 {
+        return Err(Error::Invalid(format!("texture_surfaces: the photo is not the camera's {w}x{h} RGB")));
+    }
+    let data = SceneData::build(scene)?;
+    let mut settings = scene.settings.clone();
+    settings.spp = opts.spp.max(1);
+    let render = render_cpu(&data, &settings, &|_, _| {}).radiance;
+    let mut out = vec![];
+    for seg in segments {
+        let material = scene
+            .materials
+            .get(seg.material)
+            .ok_or_else(|| Error::Invalid(format!("texture_surfaces: no material {}", seg.material)))?;
+        let mut entry = SurfaceTexture {
+            material: material.name.clone(),
+            crop: None,
+            contrast: 0.0,
+            match_contrast: None,
+            matches: vec![],
+            chosen: None,
+            decision: String::new(),
+        };
+        let Color::Constant(albedo) = material.albedo else {
+            entry.decision = "already textured".into();
+            out.push(entry);
+            continue;
+        };
+        if seg.mask.len() != w * h {
+            return Err(Error::Invalid(format!("texture_surfaces: the mask of '{}' is not {w}x{h}", entry.material)));
+        }
+        let mask = Image { width: w, height: h, channels: 1, data: seg.mask.clone() };
+        let Some(mut r) = squarest_rect(&mask)? else {
+            entry.decision = "no pixels".into();
+            out.push(entry);
+            continue;
+        };
+        if r.w < opts.min_crop || r.h < opts.min_crop {
+            entry.decision = format!("crop {}x{} smaller than {} pixels: homogeneous", r.w, r.h, opts.min_crop);
+            out.push(entry);
+            continue;
+        }
+        // At most max_crop a side and twice as long as wide, centred.
+        let side = (2 * r.w.min(r.h)).min(opts.max_crop);
+        for (pos, len) in [(&mut r.x, &mut r.w), (&mut r.y, &mut r.h)] {
+            if *len > side {
+                *pos += (*len - side) / 2;
+                *len = side;
+            }
+        }
+        entry.crop = Some([r.x, r.y, r.w, r.h]);
+        let crop = albedo_crop(photo, &render, albedo, w, [r.x, r.y, r.w, r.h]);
+        entry.contrast = local_contrast(&crop);
+        let Some(grid) = uv_grid(&data, seg.material as u32, [r.x, r.y, r.w, r.h], opts.samples.max(1)) else {
+            entry.decision = "the fitted surface under the crop is another or has no uvs: homogeneous".into();
+            out.push(entry);
+            continue;
+        };
+        if entry.contrast < opts.min_contrast {
+            entry.decision = format!("contrast {:.3} below {}: homogeneous", entry.contrast, opts.min_contrast);
+            out.push(entry);
+            continue;
+        }
+        entry.matches = search_materials_on(&crop, &grid, library, opts.top_k.max(1), opts.colour_weight)?;
+        let best = entry.matches.first().cloned().expect("the library is not empty");
+        let tex = library.iter().find(|t| t.name == best.name).expect("matches come from the library");
+        let c = local_contrast(&view_at(tex, best.scale, best.rotation_deg, &grid));
+        entry.match_contrast = Some(c);
+        if (c - entry.contrast).abs() < 0.5 * entry.contrast {
+            apply(scene, seg.material, tex, albedo, &best);
+            entry.decision = format!("{} at scale {:.3}, rotation {}", best.name, best.scale, best.rotation_deg);
+            entry.chosen = Some(best);
+        } else {
+            entry.decision =
+                format!("{} has contrast {c:.3} against the crop's {:.3}: homogeneous", best.name, entry.contrast);
+        }
+        out.push(entry);
+    }
+    Ok(out)
+}
+
+/// The crop of photo x albedo / render (the photo's albedo under the fitted shading), clamped to 0..1.
+fn albedo_crop(photo: &[f32], render: &[f32], albedo: Vec3, w: usize, r: [usize; 4]) -> Image {
+    let mut data = Vec::with_capacity(r[2] * r[3] * 3);
+    for y in r[1]..r[1] + r[3] {
+        for x in r[0]..r[0] + r[2] {
+            let p = 3 * (y * w + x);
+            for c in 0..3 {
+                data.push((photo[p + c] * albedo[c] / render[p + c].max(1e-4)).clamp(0.0, 1.0));
+            }
+        }
+    }
+    Image { width: r[2], height: r[3], channels: 3, data }
+}
+
+/// The luminance's standard deviation relative to its local mean (a box blur an eighth of the crop wide,
+/// twice): texture, not the smooth shading a fit leaves behind (lights a little off, a highlight).
+fn local_contrast(img: &Image) -> f32 {
+    let (w, h) = (img.width, img.height);
+    let lum: Vec<f32> = img.data.chunks(3).map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]).collect();
+    let r = (w.min(h) / 8).max(1) as isize;
+    let blur = |v: &[f32]| -> Vec<f32> {
+        let at = |x: isize, y: isize| v[y.clamp(0, h as isize - 1) as usize * w + x.clamp(0, w as isize - 1) as usize];
+        let rows: Vec<f32> = (0..w * h)
+            .map(|p| {
+                let (x, y) = ((p % w) as isize, (p / w) as isize);
+                (-r..=r).map(|d| at(x + d, y)).sum::<f32>() / (2 * r + 1) as f32
+            })
+            .collect();
+        let at = |x: isize, y: isize| {
+            rows[y.clamp(0, h as isize - 1) as usize * w + x.clamp(0, w as isize - 1) as usize]
+        };
+        (0..w * h)
+            .map(|p| {
+                let (x, y) = ((p % w) as isize, (p / w) as isize);
+                (-r..=r).map(|d| at(x, y + d)).sum::<f32>() / (2 * r + 1) as f32
+            })
+            .collect()
+    };
+    let smooth = blur(&blur(&lum));
+    let ratio: Vec<f32> = lum.iter().zip(&smooth).map(|(l, s)| l / s.max(1e-6) - 1.0).collect();
+    let n = ratio.len().max(1) as f32;
+    let m = ratio.iter().sum::<f32>() / n;
+    (ratio.iter().map(|v| (v - m).powi(2)).sum::<f32>() / n).sqrt()
+}
+
+/// The uvs of `material`'s surface under each pixel of the crop; pixels where the fitted scene shows another
+/// surface borrow their left (or upper) neighbour's. None when more than 5 % of the pixels do.
+fn uv_grid(d: &SceneData, material: u32, r: [usize; 4], samples: usize) -> Option<UvGrid> {
+    let origin = Vec3::from(d.camera.origin);
+    let mut uvs: Vec<Vec<[f64; 2]>> = Vec::with_capacity(r[2] * r[3]);
+    for y in r[1]..r[1] + r[3] {
+        for x in r[0]..r[0] + r[2] {
+            let mut px = vec![];
+            for j in 0..samples {
+                for i in 0..samples {
+                    let (sx, sy) = ((i as f32 + 0.5) / samples as f32, (j as f32 + 0.5) / samples as f32);
+                    let dir = camera_ray(&d.camera, x as f32 + sx, y as f32 + sy);
+                    let Some(hit) = trace_closest(&d.nodes, &d.triangles, origin, dir, f32::INFINITY) else { continue };
+                    let t = hit.triangle as usize;
+                    let sh = &d.shading[t];
+                    if d.triangles[t].material != material || sh.flags & SHADING_HAS_UVS == 0 {
+                        continue;
+                    }
+                    let uv = Vec2::from(sh.uv0) * (1.0 - hit.u - hit.v)
+                        + Vec2::from(sh.uv1) * hit.u
+                        + Vec2::from(sh.uv2) * hit.v;
+                    px.push([uv.x as f64, uv.y as f64]);
+                }
+            }
+            uvs.push(px);
+        }
+    }
+    let missing = uvs.iter().filter(|p| p.is_empty()).count();
+    if missing * 20 > uvs.len() {
+        return None;
+    }
+    for k in 0..uvs.len() {
+        if uvs[k].is_empty() {
+            let from = if k % r[2] > 0 { k - 1 } else { k.saturating_sub(r[2]) };
+            uvs[k] = uvs[from].clone();
+        }
+    }
+    if uvs.iter().any(|p| p.is_empty()) {
+        return None;
+    }
+    Some(UvGrid { width: r[2], height: r[3], uvs })
+}
+
+/// The library texture as the material's albedo, tinted to mean `albedo`, through the found transform.
+fn apply(scene: &mut Scene, material: usize, tex: &LibraryTexture, albedo: Vec3, m: &MaterialMatch) {
+    let n = (tex.size * tex.size) as f32;
+    let mean = Vec3::from_array(std::array::from_fn(|c| tex.albedo.iter().skip(c).step_by(3).sum::<f32>() / n));
+    let gain = albedo / mean.max(Vec3::splat(1e-4));
+    let texels = tex.albedo.chunks(3).flat_map(|p| (0..3).map(move |c| (p[c] * gain[c]).clamp(0.0, 1.0))).collect();
+    scene.textures.push(Texture { path: None, width: tex.size as u32, height: tex.size as u32, channels: 3, texels });
+    let mat = &mut scene.materials[material];
+    mat.albedo = Color::Texture(scene.textures.len() - 1);
+    mat.uv_transform = UvTransform { scale: Vec2::splat(m.scale), rotation_deg: m.rotation_deg, offset: Vec2::ZERO };
+}

@@ -1,0 +1,130 @@
+//! Procedural materials for the surfaces a photo shows (`stages::texture_surfaces`, the second pass of
+//! room.rhai's material stage), on the known-geometry room at 256 x 192 whose floor and walls wear library
+//! materials at known uv transforms (uv in metres, so a scale is repeats per metre), started where the
+//! homogeneous pass leaves it (each material's mean albedo as a constant, the true lights): the true material
+//! among the top 3 for each and applied, its scale within a factor 1.25 and its rotation (modulo 90 degrees:
+//! planks and stripes turned by 90 differ, but the search's rotations are judged modulo what the library's
+//! patterns repeat); the ceiling and the furniture (homogeneous) stay homogeneous; the applied materials keep
+//! the fitted mean albedo; the textured render shows the photo's contrast in the crops, and its image at 1/8
+//! size stays as close to the photo as the homogeneous one's.
+
+use glam::{Vec2, Vec3};
+use psdr::loss::Image;
+use psdr::render::{render_cpu, SceneData};
+use psdr::scene::{Color, Scene, Texture, UvTransform};
+use psdr::stages::{
+    contrast, library_textures, relative_rmse_downsampled, texture_surfaces, Segment, SurfaceTextureOptions,
+};
+use psdr_tests::known_geometry::truth_room;
+
+fn render(s: &Scene, spp: u32) -> Vec<f32> {
+    let mut settings = s.settings.clone();
+    settings.spp = spp;
+    render_cpu(&SceneData::build(s).unwrap(), &settings, &|_, _| {}).radiance
+}
+
+#[test]
+fn textured_floor_and_walls_get_their_library_materials() {
+    let (mut truth, _) = truth_room();
+    (truth.camera.width, truth.camera.height) = (256, 192);
+    let library = library_textures(128).unwrap();
+    // (material, library texture, repeats per metre, rotation).
+    let wear = [("floor", "oak_planks", 0.5f32, 90.0f32), ("wall", "wallpaper_stripes", 1.0, 0.0)];
+    for (m, name, scale, rotation) in wear {
+        let tex = library.iter().find(|t| t.name == name).unwrap();
+        truth.textures.push(Texture {
+            path: None,
+            width: tex.size as u32,
+            height: tex.size as u32,
+            channels: 3,
+            texels: tex.albedo.clone(),
+        });
+        let mat = truth.materials.iter_mut().find(|x| x.name == m).unwrap();
+        mat.albedo = Color::Texture(truth.textures.len() - 1);
+        mat.uv_transform = UvTransform { scale: Vec2::splat(scale), rotation_deg: rotation, offset: Vec2::ZERO };
+    }
+    let t = std::time::Instant::now();
+    let frame = {
+        let mut s = truth.clone();
+        s.settings.spp = 128;
+        render_cpu(&SceneData::build(&s).unwrap(), &s.settings, &|_, _| {})
+    };
+    // What the homogeneous pass leaves: each textured albedo as its mean.
+    let mut start = truth.clone();
+    for (m, name, _, _) in wear {
+        let tex = library.iter().find(|t| t.name == name).unwrap();
+        let n = (tex.size * tex.size) as f32;
+        let mean = Vec3::from_array(std::array::from_fn(|c| tex.albedo.iter().skip(c).step_by(3).sum::<f32>() / n));
+        let mat = start.materials.iter_mut().find(|x| x.name == m).unwrap();
+        (mat.albedo, mat.uv_transform) = (Color::Constant(mean), UvTransform::default());
+    }
+    start.textures.clear();
+    // Segments from the truth's object ids (a segmenter's masks): structure by class, furniture by object.
+    let segments: Vec<Segment> = (0..start.materials.len())
+        .filter(|&m| start.materials[m].name != "light")
+        .map(|m| {
+            let mask = frame
+                .object_id
+                .iter()
+                .map(|&o| {
+                    let shows = start.objects.get(o as usize).is_some_and(|x| x.parts[0].material == m);
+                    f32::from(u8::from(shows))
+                })
+                .collect();
+            Segment { material: m, mask }
+        })
+        .collect();
+    let before = render(&start, 64);
+    let opts = SurfaceTextureOptions { spp: 128, ..Default::default() };
+    let found = texture_surfaces(&mut start, &frame.radiance, &segments, &library, &opts).unwrap();
+    eprintln!("texture_surfaces: {:.1} s (with the photo's render)", t.elapsed().as_secs_f32());
+    eprintln!("{}", serde_json::to_string_pretty(&found).unwrap());
+    for (m, name, scale, rotation) in wear {
+        let s = found.iter().find(|s| s.material == m).unwrap();
+        let hit = s.matches.iter().find(|x| x.name == name).unwrap_or_else(|| panic!("{m}: {name} not in {s:?}"));
+        let ratio = hit.scale / scale;
+        assert!((0.8..=1.25).contains(&ratio), "{m}: scale {} vs {scale}", hit.scale);
+        let turn = (hit.rotation_deg - rotation).rem_euclid(180.0);
+        assert!(!(1e-3..=180.0 - 1e-3).contains(&turn), "{m}: rotation {} vs {rotation}", hit.rotation_deg);
+        assert_eq!(s.chosen.as_ref().map(|c| c.name.as_str()), Some(name), "{m}: {}", s.decision);
+        // The tint keeps the fitted mean albedo.
+        let mat = start.materials.iter().find(|x| x.name == m).unwrap();
+        let Color::Texture(i) = mat.albedo else { panic!("{m} not textured") };
+        let t = &start.textures[i];
+        let n = (t.width * t.height) as f32;
+        let tex = library.iter().find(|t| t.name == name).unwrap();
+        for c in 0..3 {
+            let want = tex.albedo.iter().skip(c).step_by(3).sum::<f32>() / n;
+            let got = t.texels.iter().skip(c).step_by(3).sum::<f32>() / n;
+            assert!((got / want - 1.0).abs() < 0.02, "{m} channel {c}: mean {got} vs {want}");
+        }
+    }
+    for s in found.iter().filter(|s| !["floor", "wall"].contains(&s.material.as_str())) {
+        assert!(s.chosen.is_none(), "{s:?}");
+    }
+    // The textured scene shows the photo's texture where the homogeneous one is flat (contrast inside each
+    // crop within 25 % of the photo's), and its image at 1/8 size (means, which the tint keeps) is no worse
+    // than 5 % of the photo's mean beyond the homogeneous one's. (Full-size pixel error is no yardstick: a
+    // texture out of phase with the photo's is farther from it, pixel by pixel, than its mean colour.)
+    let after = render(&start, 64);
+    let (w, h) = (256usize, 192usize);
+    let crop_contrast = |img: &[f32], r: [usize; 4]| {
+        let data = (r[1]..r[1] + r[3])
+            .flat_map(|y| (r[0]..r[0] + r[2]).flat_map(move |x| (0..3).map(move |c| img[3 * (y * w + x) + c])))
+            .collect();
+        contrast(&Image { width: r[2], height: r[3], channels: 3, data })
+    };
+    for s in found.iter().filter(|s| s.chosen.is_some()) {
+        let r = s.crop.unwrap();
+        let (photo, flat, textured) =
+            (crop_contrast(&frame.radiance, r), crop_contrast(&before, r), crop_contrast(&after, r));
+        eprintln!("{}: crop contrast photo {photo:.3}, homogeneous {flat:.3}, textured {textured:.3}", s.material);
+        assert!((textured / photo - 1.0).abs() < 0.25, "{}: {textured} vs {photo}", s.material);
+    }
+    let (e0, e1) = (
+        relative_rmse_downsampled(&before, &frame.radiance, w, h, 8),
+        relative_rmse_downsampled(&after, &frame.radiance, w, h, 8),
+    );
+    eprintln!("RMSE at 1/8 size: homogeneous {e0:.4}, textured {e1:.4}");
+    assert!(e1 < e0 + 0.05, "textured {e1} vs homogeneous {e0}");
+}
