@@ -1,4 +1,6 @@
-//! Albedos from shading in scripts (`stages::albedo_division`): `divide_albedos(s, photo, segments, #{rounds,
+//! Materials in scripts: `material_segments(s, obs, #{min_pixels})` maps each material the photo shows to its
+//! mask (`stages::material_segments`).
+//! Albedos from shading (`stages::albedo_division`): `divide_albedos(s, photo, segments, #{rounds,
 //! spp})` and `light_scale_search(s, photo, segments, #{range, steps, rounds, spp, downsample})`, where
 //! `segments` maps a homogeneous material's name to the mask of the photo's pixels that show it. Both change
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
@@ -8,11 +10,12 @@
 
 use super::engine::{rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
+use super::vision_api::ObsHandle;
 use crate::error::Error;
-use crate::loss::Tensor;
+use crate::loss::{Image, Tensor};
 use crate::stages::{
-    divide_albedos, library_textures, search_light_scale, texture_surfaces, LightScaleOptions, Segment,
-    SurfaceTextureOptions,
+    divide_albedos, library_textures, material_segments, search_light_scale, texture_surfaces, LightScaleOptions,
+    Segment, SurfaceTextureOptions,
 };
 use rhai::{Dynamic, Engine, Map};
 
@@ -129,7 +132,27 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
     rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
 }
 
+fn segments_of(scene: &SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Result<Map> {
+    let mut min_pixels = 20usize;
+    for (k, v) in opts {
+        match k.as_str() {
+            "min_pixels" => min_pixels = number("material_segments", k, v)?.max(1.0) as usize,
+            other => return Err(Error::Invalid(format!("material_segments: unknown option '{other}' (min_pixels)"))),
+        }
+    }
+    let inst = obs.0.require_instances()?;
+    let mut out = Map::new();
+    for (name, mask) in material_segments(&scene.0, inst, min_pixels)? {
+        let t = Tensor::constant(Image::new(inst.width, inst.height, 1, mask)?);
+        out.insert(name.into(), Dynamic::from(t));
+    }
+    Ok(out)
+}
+
 pub fn register(engine: &mut Engine, run: &RunRef) {
+    engine.register_fn("material_segments", |s: &mut SceneHandle, obs: ObsHandle, opts: Map| -> Rr<Map> {
+        segments_of(s, &obs, &opts).map_err(rhai_err)
+    });
     let r = run.clone();
     engine.register_fn(
         "texture_surfaces",

@@ -64,13 +64,24 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
     let mut model = encoder.as_deref().map(crate::vision::load_embedding_model).transpose()?;
     let cue = model.as_mut().map(|m| AppearanceCue { photo: &obs.0.photo, model: m, weight: embedding_weight });
     let (placed, skipped) = init_objects_with(&scene.0, &depth.image.data, inst, &models, &o, cue);
-    // One material per placed object, so later stages can give each its own.
+    // One material per part of each placed object (the model's own material groups: a chair's frame and its
+    // seat), named OBJECT or OBJECT:PART when it has several, so later stages can give each its own.
     let mut out = Array::new();
     let mut records = vec![];
     for (p, mut object) in placed {
-        scene.0.materials.push(Material::diffuse(&p.name, Vec3::splat(0.5)));
-        let m = scene.0.materials.len() - 1;
-        object.parts.iter_mut().for_each(|part| part.material = m);
+        let mut names: Vec<String> = vec![];
+        for part in object.parts.iter_mut() {
+            if !names.contains(&part.name) {
+                names.push(part.name.clone());
+            }
+            part.material = names.iter().position(|n| *n == part.name).unwrap_or(0);
+        }
+        let first = scene.0.materials.len();
+        for n in &names {
+            let name = if names.len() == 1 { p.name.clone() } else { format!("{}:{n}", p.name) };
+            scene.0.materials.push(Material::diffuse(&name, Vec3::splat(0.5)));
+        }
+        object.parts.iter_mut().for_each(|part| part.material += first);
         scene.0.objects.push(object);
         let mut entry = Map::new();
         entry.insert("name".into(), Dynamic::from(p.name.clone()));

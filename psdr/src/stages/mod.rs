@@ -3,7 +3,8 @@
 //! scene (`room_scene`); the object stage's merging of split instances (`instance_merge`), retrieval and
 //! placement (`object_init`, with `pose_search` and `object_support`); the light stage's initial lights
 //! (`light_init`, and `window_lights` for the windows the photo shows) and radiance fit (`light_fit`); albedos divided out of the shading and the lights'
-//! scale that only interreflections fix (`albedo_division`); the material search over the procedural library (`material_search`) and its
+//! scale that only interreflections fix (`albedo_division`); which photo pixels show which material (`material_segments`); the material search over the
+//! procedural library (`material_search`) and its
 //! application to the surfaces a photo shows (`surface_textures`); and a fitted scene's errors against a
 //! ground truth (`evaluation`).
 
@@ -14,6 +15,7 @@ mod instance_merge;
 mod light_fit;
 mod light_init;
 mod material_search;
+mod material_segments;
 mod object_init;
 mod object_support;
 mod plane_fit;
@@ -34,6 +36,7 @@ pub use material_search::{
     contrast, library_textures, search_materials, search_materials_on, transformed_view, view_at, LibraryTexture,
     MaterialMatch, UvGrid,
 };
+pub use material_segments::material_segments;
 pub use object_init::{
     init_objects, init_objects_with, AppearanceCue, Candidate, ObjectInitOptions, ObjectPlacement, SkippedInstance,
 };

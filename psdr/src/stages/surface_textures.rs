@@ -196,9 +196,8 @@ fn local_contrast(img: &Image) -> f32 {
                 (-r..=r).map(|d| at(x + d, y)).sum::<f32>() / (2 * r + 1) as f32
             })
             .collect();
-        let at = |x: isize, y: isize| {
-            rows[y.clamp(0, h as isize - 1) as usize * w + x.clamp(0, w as isize - 1) as usize]
-        };
+        let at =
+            |x: isize, y: isize| rows[y.clamp(0, h as isize - 1) as usize * w + x.clamp(0, w as isize - 1) as usize];
         (0..w * h)
             .map(|p| {
                 let (x, y) = ((p % w) as isize, (p / w) as isize);
