@@ -8,8 +8,9 @@
 //!
 //! Writes benchmarks/results/pipeline.csv and pipeline.svg (image error against total time per preset):
 //! `cargo run -p psdr-benchmarks --release --bin bench_pipeline`. `BENCH_PIPELINE_ONLY=PRESET:ROOM` runs one
-//! pair and keeps its folder (printed) for a look, writing no results; `BENCH_PIPELINE_CHART_ONLY=1` redraws
-//! the chart from the CSV.
+//! pair and keeps its folder (printed) for a look, writing no results; `BENCH_PIPELINE_PRESETS=fast,default`
+//! runs those presets only (and writes their results); `BENCH_PIPELINE_CHART_ONLY=1` redraws the chart from
+//! the CSV.
 
 use glam::{EulerRot, Quat, Vec3};
 use psdr::backend::CpuBackend;
@@ -186,6 +187,9 @@ fn write_room(g: &Generated, db: &Path, dir: &Path, w: u32, h: u32) -> anyhow::R
 /// Image error against time: every (preset, room) as a point labelled with the room, and the presets'
 /// medians joined.
 fn chart(csv: &str) -> String {
+    // Columns of the CSV (see main's header).
+    const RMSE: usize = 14;
+    const TOTAL: usize = 22;
     let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
     let colours = ["#1f77b4", "#d62728", "#2ca02c"];
     let mut chart = XyChart::new(
@@ -196,14 +200,17 @@ fn chart(csv: &str) -> String {
     let mut medians = vec![];
     for (k, preset) in ["fast", "default", "more"].iter().enumerate() {
         let of: Vec<&Vec<&str>> = rows.iter().filter(|r| r[0] == *preset).collect();
+        if of.is_empty() {
+            continue;
+        }
         let value = |r: &Vec<&str>, i: usize| r[i].parse::<f64>().unwrap_or(f64::NAN);
-        let points: Vec<Point> = of.iter().map(|r| Point::labelled(value(r, 20), value(r, 14), r[1])).collect();
+        let points: Vec<Point> = of.iter().map(|r| Point::labelled(value(r, TOTAL), value(r, RMSE), r[1])).collect();
         let median = |i: usize| {
             let mut v: Vec<f64> = of.iter().map(|r| value(r, i)).collect();
             v.sort_by(f64::total_cmp);
             v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
         };
-        medians.push(Point::labelled(median(20), median(14), *preset));
+        medians.push(Point::labelled(median(TOTAL), median(RMSE), *preset));
         let mut series = Series::marked(*preset, points).color(colours[k]);
         series.line = Line::None;
         chart.series.push(series);
@@ -242,10 +249,15 @@ fn main() -> anyhow::Result<()> {
     ];
     let mut csv = String::from(
         "preset,room,objects_true,objects_found,models_retrieved,lights_true,lights_fitted,room_across_err_pct,room_along_err_pct,room_height_err_pct,\
-         median_centre_err_pct,median_yaw_err_deg,median_height_err_pct,mask_iou_mean,image_rmse_1_8_pct,ssim,s_room,s_objects,s_lights,s_materials,s_total\n",
+         median_centre_err_pct,median_yaw_err_deg,median_height_err_pct,mask_iou_mean,image_rmse_1_8_pct,ssim,\
+         albedo_median_err_pct,albedo_worst_err_pct,s_room,s_objects,s_lights,s_materials,s_total\n",
     );
     let only = std::env::var("BENCH_PIPELINE_ONLY").ok();
+    let chosen = std::env::var("BENCH_PIPELINE_PRESETS").ok();
     for (preset, sets) in &presets {
+        if chosen.as_ref().is_some_and(|c| !c.split(',').any(|p| p == *preset)) {
+            continue;
+        }
         for (k, g) in rooms.iter().enumerate() {
             if only.as_ref().is_some_and(|o| *o != format!("{preset}:{k}")) {
                 continue;
@@ -302,9 +314,16 @@ fn main() -> anyhow::Result<()> {
                     .map_or(f64::NAN, |x| num(&x["seconds"]))
             };
             let total = num(&r["total_seconds"]);
+            let mut albedo: Vec<f64> = e["albedo"]["surfaces"]
+                .as_array()
+                .map(|a| a.iter().map(|x| num(&x["error_rel"]) * 100.0).collect())
+                .unwrap_or_default();
+            albedo.sort_by(f64::total_cmp);
+            let albedo_median = albedo.get(albedo.len() / 2).copied().unwrap_or(f64::NAN);
+            let albedo_worst = albedo.last().copied().unwrap_or(f64::NAN);
             let rmse = num(&e["image"]["rmse_rel_1_8"]) * 100.0;
             let row = format!(
-                "{preset},{k},{},{},{},{},{},{:.2},{:.2},{:.2},{:.2},{:.1},{:.2},{:.3},{rmse:.2},{:.3},{:.1},{:.1},{:.1},{:.1},{total:.1}\n",
+                "{preset},{k},{},{},{},{},{},{:.2},{:.2},{:.2},{:.2},{:.1},{:.2},{:.3},{rmse:.2},{:.3},{albedo_median:.1},{albedo_worst:.1},{:.1},{:.1},{:.1},{:.1},{total:.1}\n",
                 e["objects_true"], e["objects_found"], e["models_retrieved"], g.lights.len(), e["lights"]["fitted"],
                 num(&e["room"]["across_error_rel"]) * 100.0, num(&e["room"]["along_error_rel"]) * 100.0,
                 num(&e["room"]["height_error_rel"]) * 100.0, median("centre_error_rel", 100.0), median("yaw_error_deg", 1.0),

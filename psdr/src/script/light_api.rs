@@ -1,14 +1,17 @@
 //! The light stage's initialisation in scripts: `lights_init(s)` replaces a room scene's emitters with the
 //! candidate lights, `fit_lights(s, photo)` fits their radiances to the photo and removes the ones it does not
 //! need (in place); the fit goes into result.json as `light_fit`. `windows_init(s, obs)` adds the windows the
-//! photo shows as area lights.
+//! photo shows as area lights. `place_lights(s, photo, #{step, min_step, size_factor, spp, downsample})` moves
+//! and sizes the lights by pattern search (`stages::light_placement`), recorded as `light_placement`.
 
 use super::engine::{rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
 use super::vision_api::ObsHandle;
 use crate::error::Error;
 use crate::loss::Tensor;
-use crate::stages::{fit_lights, init_lights, LightFitOptions, LightInitOptions};
+use crate::stages::{
+    fit_lights, init_lights, refine_light_placement, LightFitOptions, LightInitOptions, LightPlacementOptions,
+};
 use glam::Vec3;
 use rhai::{Array, Dynamic, Engine, Map};
 
@@ -105,7 +108,35 @@ fn windows_init(scene: &mut SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::
     Ok(names.into_iter().map(Dynamic::from).collect())
 }
 
+fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> crate::Result<Dynamic> {
+    let mut o = LightPlacementOptions::default();
+    for (k, v) in opts {
+        let n = number(k, v, "place_lights")?;
+        match k.as_str() {
+            "step" => o.step = n as f32,
+            "min_step" => o.min_step = n as f32,
+            "size_factor" => o.size_factor = n as f32,
+            "spp" => o.render.spp = n.max(1.0) as u32,
+            "downsample" => o.render.downsample = n.max(1.0) as usize,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "place_lights: unknown option '{other}' (step, min_step, size_factor, spp, downsample)"
+                )))
+            }
+        }
+    }
+    let img = photo.value();
+    let placed = refine_light_placement(&mut scene.0, &img.data, &o)?;
+    let v = serde_json::to_value(&placed).map_err(|e| Error::Invalid(e.to_string()))?;
+    run.borrow_mut().recorded.insert("light_placement".into(), v.clone());
+    rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
+}
+
 pub fn register(engine: &mut Engine, run: &RunRef) {
+    let r = run.clone();
+    engine.register_fn("place_lights", move |s: &mut SceneHandle, photo: Tensor, opts: Map| -> Rr<Dynamic> {
+        place(&r, s, &photo, &opts).map_err(rhai_err)
+    });
     engine.register_fn("windows_init", |s: &mut SceneHandle, obs: ObsHandle| -> Rr<Array> {
         windows_init(s, &obs, &Map::new()).map_err(rhai_err)
     });

@@ -45,7 +45,7 @@ pub struct LightFit {
 }
 
 /// Box-downsamples an interleaved RGB image by k (partial blocks at the right and bottom edges dropped).
-fn downsample(data: &[f32], w: usize, h: usize, k: usize) -> (Vec<f32>, usize, usize) {
+pub(crate) fn downsample(data: &[f32], w: usize, h: usize, k: usize) -> (Vec<f32>, usize, usize) {
     let (dw, dh) = ((w / k).max(1), (h / k).max(1));
     let k = k.min(w).min(h).max(1);
     let mut out = vec![0.0; dw * dh * 3];
@@ -137,6 +137,42 @@ pub fn nnls(a: &[Vec<f64>], b: &[f64]) -> Vec<f64> {
     x
 }
 
+/// The render of `scene` lit by object `light` alone at unit radiance, downsampled as the fit compares it.
+pub(crate) fn unit_render(scene: &Scene, light: usize, opts: &LightFitOptions) -> Result<Vec<f32>> {
+    let mut s = scene.clone();
+    for (oi, o) in s.objects.iter_mut().enumerate() {
+        if let Some(e) = o.emitter.as_mut() {
+            e.radiance = if oi == light { Vec3::ONE } else { Vec3::ZERO };
+        }
+    }
+    (s.settings.spp, s.settings.max_depth, s.settings.seed) = (opts.spp, opts.max_depth, opts.seed);
+    let f = render_cpu(&SceneData::build(&s)?, &s.settings, &|_, _| {});
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    Ok(downsample(&f.radiance, w, h, opts.downsample).0)
+}
+
+/// Per channel, the non-negative least-squares radiances of the `active` basis images for `target`: the
+/// radiances (zero for inactive ones) and the squared error summed over channels.
+pub(crate) fn nnls_fit(basis: &[Vec<f32>], target: &[f32], active: &[usize]) -> (Vec<[f32; 3]>, f64) {
+    let px = target.len() / 3;
+    let mut rad = vec![[0.0f32; 3]; basis.len()];
+    let mut err = 0.0f64;
+    for c in 0..3 {
+        let cols: Vec<Vec<f64>> =
+            active.iter().map(|&i| (0..px).map(|p| basis[i][p * 3 + c] as f64).collect()).collect();
+        let b: Vec<f64> = (0..px).map(|p| target[p * 3 + c] as f64).collect();
+        let x = nnls(&cols, &b);
+        for (k, &i) in active.iter().enumerate() {
+            rad[i][c] = x[k] as f32;
+        }
+        for p in 0..px {
+            let model: f64 = active.iter().enumerate().map(|(k, _)| cols[k][p] * x[k]).sum();
+            err += (model - b[p]).powi(2);
+        }
+    }
+    (rad, err)
+}
+
 /// Fits the radiances of the emitters named `lights` (objects of `scene` with an emitter) to `photo` (linear RGB,
 /// the camera's size), then removes the lights the photo does not need.
 pub fn fit_lights(scene: &Scene, lights: &[String], photo: &[f32], opts: &LightFitOptions) -> Result<LightFit> {
@@ -161,40 +197,8 @@ pub fn fit_lights(scene: &Scene, lights: &[String], photo: &[f32], opts: &LightF
         })
         .collect::<Result<_>>()?;
     let (target, _, _) = downsample(photo, w, h, opts.downsample);
-    // One render per light with unit radiance, every other emitter dark.
-    let mut basis: Vec<Vec<f32>> = vec![];
-    for &li in &index {
-        let mut s = scene.clone();
-        for (oi, o) in s.objects.iter_mut().enumerate() {
-            if let Some(e) = o.emitter.as_mut() {
-                e.radiance = if oi == li { Vec3::ONE } else { Vec3::ZERO };
-            }
-        }
-        s.settings.spp = opts.spp;
-        s.settings.max_depth = opts.max_depth;
-        s.settings.seed = opts.seed;
-        let f = render_cpu(&SceneData::build(&s)?, &s.settings, &|_, _| {});
-        basis.push(downsample(&f.radiance, w, h, opts.downsample).0);
-    }
-    let px = target.len() / 3;
-    let fit = |active: &[usize]| -> (Vec<[f32; 3]>, f64) {
-        let mut rad = vec![[0.0f32; 3]; index.len()];
-        let mut err = 0.0f64;
-        for c in 0..3 {
-            let cols: Vec<Vec<f64>> =
-                active.iter().map(|&i| (0..px).map(|p| basis[i][p * 3 + c] as f64).collect()).collect();
-            let b: Vec<f64> = (0..px).map(|p| target[p * 3 + c] as f64).collect();
-            let x = nnls(&cols, &b);
-            for (k, &i) in active.iter().enumerate() {
-                rad[i][c] = x[k] as f32;
-            }
-            for p in 0..px {
-                let model: f64 = active.iter().enumerate().map(|(k, _)| cols[k][p] * x[k]).sum();
-                err += (model - b[p]).powi(2);
-            }
-        }
-        (rad, err)
-    };
+    let basis: Vec<Vec<f32>> = index.iter().map(|&li| unit_render(scene, li, opts)).collect::<Result<_>>()?;
+    let fit = |active: &[usize]| nnls_fit(&basis, &target, active);
     let norm = target.iter().map(|v| (*v as f64).powi(2)).sum::<f64>().max(1e-30);
     let rel = |err: f64| (err / norm).sqrt() as f32;
     let mut active: Vec<usize> = (0..index.len()).collect();
@@ -218,7 +222,8 @@ pub fn fit_lights(scene: &Scene, lights: &[String], photo: &[f32], opts: &LightF
         (rad, err) = (r, e);
     }
     let lum = |v: &[f32]| v.chunks(3).map(|c| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]).sum::<f32>();
-    let fitted: Vec<f32> = (0..px * 3).map(|k| active.iter().map(|&i| basis[i][k] * rad[i][k % 3]).sum()).collect();
+    let fitted: Vec<f32> =
+        (0..target.len()).map(|k| active.iter().map(|&i| basis[i][k] * rad[i][k % 3]).sum()).collect();
     Ok(LightFit {
         names: lights.to_vec(),
         kept: (0..index.len()).map(|i| active.contains(&i)).collect(),

@@ -2,7 +2,8 @@
 //! segmentation (`room_init`, `depth_calibration`, geometry in `point_cloud` and `plane_fit`) and the room as a
 //! scene (`room_scene`); the object stage's merging of split instances (`instance_merge`), retrieval and
 //! placement (`object_init`, with `pose_search` and `object_support`); the light stage's initial lights
-//! (`light_init`, and `window_lights` for the windows the photo shows) and radiance fit (`light_fit`); albedos divided out of the shading and the lights'
+//! (`light_init`, and `window_lights` for the windows the photo shows) radiance fit (`light_fit`) and their
+//! positions and sizes (`light_placement`); albedos divided out of the shading and the lights'
 //! scale that only interreflections fix (`albedo_division`); which photo pixels show which material (`material_segments`); the material search over the
 //! procedural library (`material_search`) and its
 //! application to the surfaces a photo shows (`surface_textures`); and a fitted scene's errors against a
@@ -14,6 +15,7 @@ mod evaluation;
 mod instance_merge;
 mod light_fit;
 mod light_init;
+mod light_placement;
 mod material_search;
 mod material_segments;
 mod object_init;
@@ -32,6 +34,7 @@ pub use evaluation::{evaluate, relative_rmse_downsampled, room_in_camera_frame, 
 pub use instance_merge::{merge_split_instances, MergedInstance};
 pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use light_init::{init_lights, LightInitOptions};
+pub use light_placement::{refine_light_placement, LightPlacement, LightPlacementOptions};
 pub use material_search::{
     contrast, library_textures, search_materials, search_materials_on, transformed_view, view_at, LibraryTexture,
     MaterialMatch, UvGrid,

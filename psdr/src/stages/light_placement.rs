@@ -1,0 +1,174 @@
+//! Where the lights are and how large (after `fit_lights` kept the ones the photo needs): candidates sit on a
+//! grid, the real lights do not, and a light 40 cm off throws its shading on the wrong wall, which the albedos
+//! then absorb. A pattern search moves each light in its own plane (its local x and y: along the ceiling for a
+//! ceiling light, along the wall for a window) and grows or shrinks it, keeping a move when the non-negative
+//! least-squares fit of all lights' unit renders to the photo (`light_fit`) gets better; the step halves when no
+//! move helps, down to `min_step`. Rendering is linear in radiance, so each trial costs one unit render of the
+//! moved light; trials share one seed, so their noise is common and cancels in the comparison. Lights stay
+//! inside the room's box and within `size_range` of their start.
+
+use super::light_fit::{downsample, nnls_fit, unit_render, LightFitOptions};
+use crate::error::{Error, Result};
+use crate::scene::Scene;
+use glam::Vec3;
+
+const MAX_PASSES: usize = 3;
+
+#[derive(Clone, Debug)]
+pub struct LightPlacementOptions {
+    /// First step (metres) and the step below which the search ends.
+    pub step: f32,
+    pub min_step: f32,
+    /// Each size move scales the light by this factor (or its inverse) in its plane...
+    pub size_factor: f32,
+    /// ...within this range of its start (a light shrunk to a point lights the ceiling next to it with
+    /// fireflies; one grown past its cell is two lights).
+    pub size_range: (f32, f32),
+    /// The unit renders (spp, downsampling, path length).
+    pub render: LightFitOptions,
+}
+
+impl Default for LightPlacementOptions {
+    fn default() -> Self {
+        LightPlacementOptions {
+            step: 0.4,
+            min_step: 0.1,
+            size_factor: 1.25,
+            size_range: (0.5, 2.0),
+            render: LightFitOptions { spp: 16, ..Default::default() },
+        }
+    }
+}
+
+/// The room's box (floor to ceiling, wall to wall) widened by 2 cm, when the scene has the room surfaces.
+fn room_box(scene: &Scene) -> Option<(Vec3, Vec3)> {
+    let at = |n: &str| scene.objects.iter().find(|o| o.name == n).map(|o| o.pose.translation);
+    let lo = Vec3::new(at("wall_x0")?.x, at("floor")?.y, at("wall_z0")?.z);
+    let hi = Vec3::new(at("wall_x1")?.x, at("ceiling")?.y, at("wall_z1")?.z);
+    Some((lo.min(hi) - 0.02, lo.max(hi) + 0.02))
+}
+
+/// Whether every vertex of object `i` lies inside the room (always, without a room): a light moved through
+/// a wall lights the world behind it, or leaks through the seam.
+fn inside(scene: &Scene, i: usize, room: Option<(Vec3, Vec3)>) -> bool {
+    let Some((lo, hi)) = room else { return true };
+    let o = &scene.objects[i];
+    let m = o.pose.matrix();
+    o.parts.iter().flat_map(|p| &p.positions).all(|v| {
+        let w = m.transform_point3(*v);
+        w.cmpge(lo).all() && w.cmple(hi).all()
+    })
+}
+
+/// A move of one light and the fit it gives: its unit render, every light's radiance, the squared error.
+struct Trial {
+    translation: Vec3,
+    scale: Vec3,
+    image: Vec<f32>,
+    radiance: Vec<[f32; 3]>,
+    err: f64,
+}
+
+/// What the search did.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct LightPlacement {
+    pub names: Vec<String>,
+    /// Per light, how far it moved (metres) and its size over the start's.
+    pub moved_m: Vec<f32>,
+    pub size_ratio: Vec<f32>,
+    /// The fit's relative RMS error before and after.
+    pub relative_rms_before: f32,
+    pub relative_rms_after: f32,
+    pub unit_renders: usize,
+}
+
+/// Moves and sizes every emitter of `scene` (see the module) and sets their radiances to the final fit.
+pub fn refine_light_placement(
+    scene: &mut Scene,
+    photo: &[f32],
+    opts: &LightPlacementOptions,
+) -> Result<LightPlacement> {
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    if photo.len() != w * h * 3 {
+        return Err(Error::Invalid(format!("light placement: the photo is not the camera's {w}x{h} RGB")));
+    }
+    if !(opts.step > 0.0 && opts.min_step > 0.0 && opts.size_factor > 1.0) {
+        return Err(Error::Invalid("light placement: step and min_step must be positive, size_factor above 1".into()));
+    }
+    let lights: Vec<usize> = (0..scene.objects.len()).filter(|&i| scene.objects[i].emitter.is_some()).collect();
+    let room = room_box(scene);
+    let start: Vec<(Vec3, Vec3)> =
+        lights.iter().map(|&i| (scene.objects[i].pose.translation, scene.objects[i].pose.scale)).collect();
+    let ro = &opts.render;
+    let (target, _, _) = downsample(photo, w, h, ro.downsample.max(1));
+    let norm = target.iter().map(|v| (*v as f64).powi(2)).sum::<f64>().max(1e-30);
+    let rel = |err: f64| (err / norm).sqrt() as f32;
+    let all: Vec<usize> = (0..lights.len()).collect();
+    let mut basis: Vec<Vec<f32>> = lights.iter().map(|&i| unit_render(scene, i, ro)).collect::<Result<_>>()?;
+    let mut renders = basis.len();
+    let (mut rad, mut err) = nnls_fit(&basis, &target, &all);
+    let before = rel(err);
+    let (mut step, mut passes) = (opts.step, 0);
+    while step >= opts.min_step && !lights.is_empty() {
+        let mut improved = false;
+        passes += 1;
+        for (k, &li) in lights.iter().enumerate() {
+            let pose = scene.objects[li].pose;
+            let (ax, ay) = (pose.rotation * Vec3::X, pose.rotation * Vec3::Y);
+            let in_plane = |f: f32| Vec3::new(f, f, 1.0);
+            let trials = [
+                (pose.translation + step * ax, pose.scale),
+                (pose.translation - step * ax, pose.scale),
+                (pose.translation + step * ay, pose.scale),
+                (pose.translation - step * ay, pose.scale),
+                (pose.translation, pose.scale * in_plane(opts.size_factor)),
+                (pose.translation, pose.scale * in_plane(1.0 / opts.size_factor)),
+            ];
+            let mut best: Option<Trial> = None;
+            let size_ok = |s: Vec3| {
+                let r = s.x / start[k].1.x;
+                r >= opts.size_range.0 - 1e-4 && r <= opts.size_range.1 + 1e-4
+            };
+            for (t, s) in trials.into_iter().filter(|(_, s)| size_ok(*s)) {
+                scene.objects[li].pose.translation = t;
+                scene.objects[li].pose.scale = s;
+                if !inside(scene, li, room) {
+                    continue;
+                }
+                let img = unit_render(scene, li, ro)?;
+                renders += 1;
+                let mut b = basis.clone();
+                b[k] = img;
+                let (r, e) = nnls_fit(&b, &target, &all);
+                if e < best.as_ref().map_or(err, |x| x.err) {
+                    best = Some(Trial { translation: t, scale: s, image: b.swap_remove(k), radiance: r, err: e });
+                }
+            }
+            match best {
+                Some(b) => {
+                    (scene.objects[li].pose.translation, scene.objects[li].pose.scale) = (b.translation, b.scale);
+                    (basis[k], rad, err) = (b.image, b.radiance, b.err);
+                    improved = true;
+                }
+                None => scene.objects[li].pose = pose,
+            }
+        }
+        // At most MAX_PASSES passes at one step: a light still drifting by then follows noise.
+        if !improved || passes >= MAX_PASSES {
+            (step, passes) = (step / 2.0, 0);
+        }
+    }
+    for (k, &li) in lights.iter().enumerate() {
+        if let Some(e) = scene.objects[li].emitter.as_mut() {
+            e.radiance = Vec3::from(rad[k]).max(Vec3::splat(1e-6));
+        }
+    }
+    Ok(LightPlacement {
+        names: lights.iter().map(|&i| scene.objects[i].name.clone()).collect(),
+        moved_m: lights.iter().zip(&start).map(|(&i, s)| (scene.objects[i].pose.translation - s.0).length()).collect(),
+        size_ratio: lights.iter().zip(&start).map(|(&i, s)| scene.objects[i].pose.scale.x / s.1.x).collect(),
+        relative_rms_before: before,
+        relative_rms_after: rel(err),
+        unit_renders: renders,
+    })
+}
