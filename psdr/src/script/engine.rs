@@ -19,6 +19,25 @@ pub fn rhai_err(e: Error) -> Box<EvalAltResult> {
     EvalAltResult::ErrorRuntime(Dynamic::from(e.to_string()), Position::NONE).into()
 }
 
+/// An option's value as a number (an integer or a float), or an error naming the function and the key.
+pub fn option_number(what: &str, key: &str, v: &Dynamic) -> crate::Result<f64> {
+    v.as_float()
+        .or_else(|_| v.as_int().map(|i| i as f64))
+        .map_err(|_| Error::Invalid(format!("{what}: '{key}' must be a number")))
+}
+
+/// Checks that `photo` is RGB at the size `scene`'s camera renders.
+pub fn check_photo(what: &str, scene: &crate::scene::Scene, photo: &crate::loss::Image) -> crate::Result<()> {
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    if (photo.width, photo.height, photo.channels) != (w, h, 3) {
+        return Err(Error::Invalid(format!(
+            "{what}: the photo is {}x{}x{} but the scene's camera renders {w}x{h} RGB",
+            photo.width, photo.height, photo.channels
+        )));
+    }
+    Ok(())
+}
+
 /// Rhai operations a script may run before it is stopped: far above any real schedule (whose work happens
 /// in Rust calls, each one operation), far below a runaway loop's minutes.
 pub const MAX_OPERATIONS: u64 = 50_000_000;

@@ -4,7 +4,7 @@
 //! photo shows as area lights. `place_lights(s, photo, #{step, min_step, size_factor, spp, downsample})` moves
 //! and sizes the lights by pattern search (`stages::light_placement`), recorded as `light_placement`.
 
-use super::engine::{rhai_err, Rr, RunRef};
+use super::engine::{check_photo, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
 use super::vision_api::ObsHandle;
 use crate::error::Error;
@@ -16,9 +16,7 @@ use glam::Vec3;
 use rhai::{Array, Dynamic, Engine, Map};
 
 fn number(k: &str, v: &Dynamic, what: &str) -> crate::Result<f64> {
-    v.as_float()
-        .or_else(|_| v.as_int().map(|i| i as f64))
-        .map_err(|_| Error::Invalid(format!("{what}: '{k}' must be a number")))
+    option_number(what, k, v)
 }
 
 fn lights_init(scene: &mut SceneHandle, opts: &Map) -> crate::Result<Array> {
@@ -63,13 +61,7 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
         }
     }
     let img = photo.value();
-    let (w, h) = (scene.0.camera.width as usize, scene.0.camera.height as usize);
-    if (img.width, img.height, img.channels) != (w, h, 3) {
-        return Err(Error::Invalid(format!(
-            "fit_lights: the photo is {}x{}x{} but the scene's camera renders {w}x{h} RGB",
-            img.width, img.height, img.channels
-        )));
-    }
+    check_photo("fit_lights", &scene.0, img)?;
     let names: Vec<String> = scene.0.objects.iter().filter(|o| o.emitter.is_some()).map(|o| o.name.clone()).collect();
     let f = fit_lights(&scene.0, &names, &img.data, &o)?;
     // Kept lights get their radiance; the others leave the scene.
@@ -126,6 +118,7 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
         }
     }
     let img = photo.value();
+    check_photo("place_lights", &scene.0, img)?;
     let placed = refine_light_placement(&mut scene.0, &img.data, &o)?;
     let v = serde_json::to_value(&placed).map_err(|e| Error::Invalid(e.to_string()))?;
     run.borrow_mut().recorded.insert("light_placement".into(), v.clone());

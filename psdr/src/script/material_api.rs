@@ -8,7 +8,7 @@
 //! samples, library_size})` gives the segments that show a texture a procedural material from the library
 //! (`stages::surface_textures`), recorded as `surface_textures` (crops, top matches, decisions).
 
-use super::engine::{rhai_err, Rr, RunRef};
+use super::engine::{check_photo, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
 use super::vision_api::ObsHandle;
 use crate::error::Error;
@@ -19,21 +19,10 @@ use crate::stages::{
 };
 use rhai::{Dynamic, Engine, Map};
 
-fn number(what: &str, k: &str, v: &Dynamic) -> crate::Result<f64> {
-    v.as_float()
-        .or_else(|_| v.as_int().map(|i| i as f64))
-        .map_err(|_| Error::Invalid(format!("{what}: '{k}' must be a number")))
-}
-
 fn segments(what: &str, scene: &SceneHandle, photo: &Tensor, map: &Map) -> crate::Result<(Vec<f32>, Vec<Segment>)> {
     let img = photo.value();
-    let (w, h) = (scene.0.camera.width as usize, scene.0.camera.height as usize);
-    if (img.width, img.height, img.channels) != (w, h, 3) {
-        return Err(Error::Invalid(format!(
-            "{what}: the photo is {}x{}x{} but the scene's camera renders {w}x{h} RGB",
-            img.width, img.height, img.channels
-        )));
-    }
+    check_photo(what, &scene.0, img)?;
+    let (w, h) = (img.width, img.height);
     let mut out = vec![];
     for (name, mask) in map {
         let material = scene.0.materials.iter().position(|m| m.name == name.as_str()).ok_or_else(|| {
@@ -58,7 +47,7 @@ fn segments(what: &str, scene: &SceneHandle, photo: &Tensor, map: &Map) -> crate
 fn divide(scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<()> {
     let (mut rounds, mut spp) = (3usize, 32u32);
     for (k, v) in opts {
-        let n = number("divide_albedos", k, v)?;
+        let n = option_number("divide_albedos", k, v)?;
         match k.as_str() {
             "rounds" => rounds = n.max(0.0) as usize,
             "spp" => spp = n.max(1.0) as u32,
@@ -77,13 +66,13 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             "range" => {
                 let r =
                     v.clone().into_array().map_err(|_| Error::Invalid(format!("{what}: 'range' is [low, high]")))?;
-                let f = |i: usize| r.get(i).map(|x| number(what, "range", x)).unwrap_or(Ok(f64::NAN));
+                let f = |i: usize| r.get(i).map(|x| option_number(what, "range", x)).unwrap_or(Ok(f64::NAN));
                 o.range = (f(0)? as f32, f(1)? as f32);
             }
-            "steps" => o.steps = number(what, k, v)?.max(0.0) as usize,
-            "rounds" => o.rounds = number(what, k, v)?.max(0.0) as usize,
-            "spp" => o.spp = number(what, k, v)?.max(1.0) as u32,
-            "downsample" => o.downsample = number(what, k, v)?.max(1.0) as usize,
+            "steps" => o.steps = option_number(what, k, v)?.max(0.0) as usize,
+            "rounds" => o.rounds = option_number(what, k, v)?.max(0.0) as usize,
+            "spp" => o.spp = option_number(what, k, v)?.max(1.0) as u32,
+            "downsample" => o.downsample = option_number(what, k, v)?.max(1.0) as usize,
             other => {
                 return Err(Error::Invalid(format!(
                     "{what}: unknown option '{other}' (range, steps, rounds, spp, downsample)"
@@ -106,7 +95,7 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
     let mut o = SurfaceTextureOptions::default();
     let mut library_size = 128usize;
     for (k, v) in opts {
-        let n = number(what, k, v)?;
+        let n = option_number(what, k, v)?;
         match k.as_str() {
             "spp" => o.spp = n.max(1.0) as u32,
             "top_k" => o.top_k = n.max(1.0) as usize,
@@ -136,7 +125,7 @@ fn segments_of(scene: &SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Resul
     let mut min_pixels = 20usize;
     for (k, v) in opts {
         match k.as_str() {
-            "min_pixels" => min_pixels = number("material_segments", k, v)?.max(1.0) as usize,
+            "min_pixels" => min_pixels = option_number("material_segments", k, v)?.max(1.0) as usize,
             other => return Err(Error::Invalid(format!("material_segments: unknown option '{other}' (min_pixels)"))),
         }
     }

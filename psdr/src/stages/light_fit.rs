@@ -137,8 +137,8 @@ pub fn nnls(a: &[Vec<f64>], b: &[f64]) -> Vec<f64> {
     x
 }
 
-/// The render of `scene` lit by object `light` alone at unit radiance, downsampled as the fit compares it.
-pub(crate) fn unit_render(scene: &Scene, light: usize, opts: &LightFitOptions) -> Result<Vec<f32>> {
+/// `scene` lit by object `light` alone at unit radiance, with the fit's render settings.
+pub(crate) fn lit_by(scene: &Scene, light: usize, opts: &LightFitOptions) -> Scene {
     let mut s = scene.clone();
     for (oi, o) in s.objects.iter_mut().enumerate() {
         if let Some(e) = o.emitter.as_mut() {
@@ -146,6 +146,12 @@ pub(crate) fn unit_render(scene: &Scene, light: usize, opts: &LightFitOptions) -
         }
     }
     (s.settings.spp, s.settings.max_depth, s.settings.seed) = (opts.spp, opts.max_depth, opts.seed);
+    s
+}
+
+/// The render of `scene` lit by object `light` alone at unit radiance, downsampled as the fit compares it.
+pub(crate) fn unit_render(scene: &Scene, light: usize, opts: &LightFitOptions) -> Result<Vec<f32>> {
+    let s = lit_by(scene, light, opts);
     let f = render_cpu(&SceneData::build(&s)?, &s.settings, &|_, _| {});
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     Ok(downsample(&f.radiance, w, h, opts.downsample).0)
