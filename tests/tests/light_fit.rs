@@ -184,3 +184,45 @@ fn a_visible_window_becomes_a_light_on_its_wall() {
     assert!((w.pose.rotation * Vec3::Z).dot(Vec3::X) > 0.99, "faces into the room");
     assert!(w.emitter.is_some());
 }
+
+/// Lights off their place (`refine_light_placement`): the two lights of the known-geometry room started 30-43
+/// cm away from where the photo was lit and 1.5x / 0.7x their size come back, by the pattern search on the
+/// unit renders' fit, with their power (radiance x area, per channel) within 15 %, the main light (light_a,
+/// over the part of the room the camera sees) within 10 cm (measured 7 cm), and the fit's error at least
+/// halves (measured 8.7 % -> 2.4 %). Weakly determined and so reported, not asserted: a light's size at the
+/// fit's 1/8 size (only penumbrae show it: 0.77x as large and 1.6x as bright fits as well), and the position
+/// of the dim light over the camera's own half of the room, which lights mostly what the photo does not show
+/// (measured 32 cm off).
+#[test]
+fn misplaced_lights_move_back_to_where_the_photo_was_lit() {
+    use psdr::stages::{refine_light_placement, LightPlacementOptions};
+    let (truth, _) = psdr_tests::known_geometry::truth_room();
+    let photo = render_cpu(&SceneData::build(&truth).unwrap(), &truth.settings, &|_, _| {}).radiance;
+    let mut start = truth.clone();
+    start.settings.spp = 16;
+    for (name, shift, size) in
+        [("light_a", Vec3::new(0.35, 0.0, -0.25), 1.5f32), ("light_b", Vec3::new(-0.3, 0.0, 0.2), 0.7)]
+    {
+        let o = start.objects.iter_mut().find(|o| o.name == name).unwrap();
+        o.pose.translation += shift;
+        o.pose.scale *= Vec3::new(size, size, 1.0);
+        o.emitter = Some(Emitter { radiance: Vec3::ONE, two_sided: false });
+    }
+    let t = std::time::Instant::now();
+    let placed = refine_light_placement(&mut start, &photo, &LightPlacementOptions::default()).unwrap();
+    eprintln!("{placed:?} in {:.1} s", t.elapsed().as_secs_f32());
+    for name in ["light_a", "light_b"] {
+        let (got, want) = (
+            start.objects.iter().find(|o| o.name == name).unwrap(),
+            truth.objects.iter().find(|o| o.name == name).unwrap(),
+        );
+        let off = (got.pose.translation - want.pose.translation).length();
+        let size = got.pose.scale.x / want.pose.scale.x;
+        let area = |o: &psdr::scene::Object| o.pose.scale.x * o.pose.scale.y;
+        let power = got.emitter.unwrap().radiance * area(got) / (want.emitter.unwrap().radiance * area(want));
+        eprintln!("{name}: {off:.3} m off, size x{size:.2}, power x{power}");
+        assert!(name != "light_a" || off < 0.1, "{name}: {off} m from the truth");
+        assert!(power.cmpgt(Vec3::splat(0.85)).all() && power.cmplt(Vec3::splat(1.15)).all(), "{name}: power x{power}");
+    }
+    assert!(placed.relative_rms_after < 0.5 * placed.relative_rms_before, "{placed:?}");
+}
