@@ -64,7 +64,10 @@ fn main() -> anyhow::Result<()> {
     let e = &r["recorded"]["evaluation"];
     let num = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
     let stage = |name: &str| {
-        r["stages"].as_array().and_then(|s| s.iter().find(|x| x["name"] == name)).map_or(f64::NAN, |x| num(&x["seconds"]))
+        r["stages"]
+            .as_array()
+            .and_then(|s| s.iter().find(|x| x["name"] == name))
+            .map_or(f64::NAN, |x| num(&x["seconds"]))
     };
     let o = &e["objects"][0];
     let csv = format!(

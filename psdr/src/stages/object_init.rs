@@ -455,7 +455,7 @@ pub fn init_objects_with(
                 })
                 .collect();
             let reach = half_depth(parts) * scale;
-            if let Some((yaw, sc, iou, t)) = back_to_the_wall(&found, &walls, reach, opts.wall_tie) {
+            if let Some((yaw, sc, iou, t)) = back_to_the_wall(&found, &walls, reach, opts.wall_tie, cam.origin) {
                 let chosen = Candidate { yaw_deg: yaw.rem_euclid(360.0), iou, score: sc, ..c.clone() };
                 finals.push((chosen, *scale, t, o));
             }

@@ -1,5 +1,6 @@
 //! Where a placed object stands: on the floor, on another object (`resting_on`), mounted on a wall (`wall_below`)
-//! or with its back to a wall (`back_to_the_wall`, the prior that breaks near-ties of the pose search).
+//! or with its back to a wall (`back_to_the_wall`, the prior that breaks near-ties of the pose search, else
+//! the front towards the camera).
 
 use crate::scene::{MeshPart, Scene};
 use crate::vision::Instances;
@@ -69,20 +70,24 @@ pub(super) fn back(yaw_deg: f32) -> Vec3 {
 }
 
 /// The best of `found` (yaw, score, iou, translation); among poses within `tie` of it, one whose back faces
-/// a wall it stands against (the model's half depth `reach` from its centre), if any.
+/// a wall it stands against (the model's half depth `reach` from its centre), if any; else, among them, the one
+/// whose front (local +z) faces the camera at `eye` most (furniture is photographed from the front: a cabinet
+/// turned round differs by its handles, a few pixels).
 pub(super) fn back_to_the_wall(
     found: &[(f32, f32, f32, Vec3)],
     walls: &[Wall],
     reach: f32,
     tie: f32,
+    eye: Vec3,
 ) -> Option<(f32, f32, f32, Vec3)> {
     let best = *found.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
     let facing = |f: &(f32, f32, f32, Vec3)| wall_behind(walls, f.3, reach).map_or(0.0, |w| back(f.0).dot(-w.normal));
-    let backed = found
-        .iter()
-        .filter(|f| f.1 >= best.1 - tie && facing(f) > 0.7)
-        .max_by(|a, b| facing(a).total_cmp(&facing(b)).then(a.1.total_cmp(&b.1)));
-    Some(*backed.unwrap_or(&best))
+    let ties = || found.iter().filter(|f| f.1 >= best.1 - tie);
+    let backed =
+        ties().filter(|f| facing(f) > 0.7).max_by(|a, b| facing(a).total_cmp(&facing(b)).then(a.1.total_cmp(&b.1)));
+    let to_eye = |f: &(f32, f32, f32, Vec3)| (-back(f.0)).dot((eye - f.3).normalize_or_zero());
+    let fronted = ties().max_by(|a, b| to_eye(a).total_cmp(&to_eye(b)).then(a.1.total_cmp(&b.1)));
+    Some(*backed.or(fronted).unwrap_or(&best))
 }
 
 /// Half the model's extent along its local z (front to back).
@@ -112,5 +117,23 @@ pub(super) fn wall_below(inst: &Instances, id: u16) -> f32 {
         0.0
     } else {
         walls as f32 / columns as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Without a wall behind it, of two near-tied poses the one facing the camera wins, whichever scored a
+    /// hair better; a pose outside the tie is not taken for facing the camera.
+    #[test]
+    fn near_ties_away_from_walls_face_the_camera() {
+        let eye = Vec3::new(0.0, 1.5, 3.0);
+        let at = Vec3::new(0.0, 0.0, 0.0);
+        // Yaw 0: local +z (the front) points at +z, towards the eye; yaw 180 turns the back to it.
+        let found = [(180.0, 0.800, 0.9, at), (0.0, 0.795, 0.9, at)];
+        assert_eq!(back_to_the_wall(&found, &[], 0.3, 0.02, eye).unwrap().0, 0.0);
+        let far = [(180.0, 0.800, 0.9, at), (0.0, 0.700, 0.8, at)];
+        assert_eq!(back_to_the_wall(&far, &[], 0.3, 0.02, eye).unwrap().0, 180.0);
     }
 }
