@@ -108,11 +108,14 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
             "step" => o.step = n as f32,
             "min_step" => o.min_step = n as f32,
             "size_factor" => o.size_factor = n as f32,
+            "min_size" => o.size_range.0 = n as f32,
+            "max_size" => o.size_range.1 = n as f32,
             "spp" => o.render.spp = n.max(1.0) as u32,
             "downsample" => o.render.downsample = n.max(1.0) as usize,
             other => {
                 return Err(Error::Invalid(format!(
-                    "place_lights: unknown option '{other}' (step, min_step, size_factor, spp, downsample)"
+                    "place_lights: unknown option '{other}' (step, min_step, size_factor, min_size, max_size, spp, \
+                     downsample)"
                 )))
             }
         }

@@ -104,11 +104,12 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
             "min_crop" => o.min_crop = n.max(24.0) as usize,
             "max_crop" => o.max_crop = n.max(24.0) as usize,
             "samples" => o.samples = n.clamp(1.0, 8.0) as usize,
+            "contrast_tolerance" => o.contrast_tolerance = n.max(0.0) as f32,
             "library_size" => library_size = n.clamp(16.0, 1024.0) as usize,
             other => {
                 return Err(Error::Invalid(format!(
                     "{what}: unknown option '{other}' (spp, top_k, colour_weight, min_contrast, min_crop, max_crop, \
-                     samples, library_size)"
+                     samples, contrast_tolerance, library_size)"
                 )))
             }
         }

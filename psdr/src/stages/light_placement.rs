@@ -104,8 +104,13 @@ pub fn refine_light_placement(
     if photo.len() != w * h * 3 {
         return Err(Error::Invalid(format!("light placement: the photo is not the camera's {w}x{h} RGB")));
     }
-    if !(opts.step > 0.0 && opts.min_step > 0.0 && opts.size_factor > 1.0) {
-        return Err(Error::Invalid("light placement: step and min_step must be positive, size_factor above 1".into()));
+    let (lo, hi) = opts.size_range;
+    if !(opts.step > 0.0 && opts.min_step > 0.0 && opts.size_factor > 1.0 && lo > 0.0 && lo <= 1.0 && hi >= 1.0) {
+        return Err(Error::Invalid(
+            "light placement: step and min_step must be positive, size_factor above 1, min_size in (0, 1] and \
+             max_size at least 1"
+                .into(),
+        ));
     }
     let lights: Vec<usize> = (0..scene.objects.len()).filter(|&i| scene.objects[i].emitter.is_some()).collect();
     let room = room_box(scene);

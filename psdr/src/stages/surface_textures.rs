@@ -12,8 +12,8 @@
 //!    a box blur an eighth of the crop wide: texture, not the smooth shading residue a fit leaves) is flat:
 //!    it stays homogeneous. Otherwise the library is searched (`search_materials_on`: texture descriptor, mean colour,
 //!    fineness; scales and rotations) and the best match replaces the homogeneous albedo when it reproduces
-//!    the crop's local contrast at least twice as closely as a flat colour does (|contrast(view) -
-//!    contrast(crop)| below half the crop's: the flat colour's error is the whole contrast). The descriptor ranks
+//!    the crop's local contrast closely (|contrast(view) - contrast(crop)| below `contrast_tolerance`, 0.5,
+//!    of the crop's: the flat colour's error is the whole contrast). The descriptor ranks
 //!    materials but cannot make this call: it sees colour, which dominates its energy on a plank floor;
 //! 5. applied as the library material's albedo baked at default parameters, tinted per channel so its mean is
 //!    the fitted albedo (the lights' fit stays valid), with the found uv scale and rotation.
@@ -46,6 +46,9 @@ pub struct SurfaceTextureOptions {
     pub max_crop: usize,
     /// Rays per pixel side for the uv grid (a pixel's footprint).
     pub samples: usize,
+    /// The best match is applied when its local contrast is within this fraction of the crop's (a flat colour
+    /// misses it by the whole of it).
+    pub contrast_tolerance: f32,
 }
 
 impl Default for SurfaceTextureOptions {
@@ -58,6 +61,7 @@ impl Default for SurfaceTextureOptions {
             min_crop: 24,
             max_crop: 64,
             samples: 3,
+            contrast_tolerance: 0.5,
         }
     }
 }
@@ -155,7 +159,7 @@ pub fn texture_surfaces(
         let tex = library.iter().find(|t| t.name == best.name).expect("matches come from the library");
         let c = local_contrast(&view_at(tex, best.scale, best.rotation_deg, &grid));
         entry.match_contrast = Some(c);
-        if (c - entry.contrast).abs() < 0.5 * entry.contrast {
+        if (c - entry.contrast).abs() < opts.contrast_tolerance * entry.contrast {
             apply(scene, seg.material, tex, albedo, &best);
             entry.decision = format!("{} at scale {:.3}, rotation {}", best.name, best.scale, best.rotation_deg);
             entry.chosen = Some(best);
