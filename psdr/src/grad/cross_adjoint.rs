@@ -59,7 +59,7 @@ pub fn radiance_vjp_cross(
         .par_chunks_mut(rows_per_block * w * 3)
         .enumerate()
         .map(|(b, rows)| {
-            let mut grad = vec![0.0f64; layout.len];
+            let mut grad = vec![0.0f64; layout.extended_len];
             let mut half_a = vec![PathRecord::default(); n_a as usize];
             let mut rec = PathRecord::default();
             let sweep = |rec: &PathRecord, delta: Vec3, grad: &mut [f64]| {
@@ -98,9 +98,9 @@ pub fn radiance_vjp_cross(
             grad
         })
         .collect();
-    let mut grad = vec![0.0f64; layout.len];
+    let mut grad = vec![0.0f64; layout.extended_len];
     for part in partial {
         grad.iter_mut().zip(part).for_each(|(g, v)| *g += v);
     }
-    Ok((grad, image))
+    Ok((layout.finish(grad)?, image))
 }

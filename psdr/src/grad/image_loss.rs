@@ -34,6 +34,10 @@ pub enum ImageLoss {
     Mean(Output),
     /// Mean squared difference to a target image of the same size and channel count.
     L2To { output: Output, target: Vec<f32> },
+    /// Mean of the output times fixed weights (one per value): a linear functional that, unlike the mean,
+    /// sees where in the image a change happens, and unlike L2 is unbiased at the primal's own seed
+    /// (what gradient tests differentiate, DESIGN.md).
+    Weighted { output: Output, weights: Vec<f32> },
 }
 
 impl ImageLoss {
@@ -59,13 +63,13 @@ impl ImageLoss {
     /// The output this loss reads.
     pub fn output(&self) -> &Output {
         match self {
-            ImageLoss::Mean(o) | ImageLoss::L2To { output: o, .. } => o,
+            ImageLoss::Mean(o) | ImageLoss::L2To { output: o, .. } | ImageLoss::Weighted { output: o, .. } => o,
         }
     }
 
     /// True when the adjoint depends on the rendered image (so a primal render must come first).
     pub fn needs_primal(&self) -> bool {
-        !matches!(self, ImageLoss::Mean(_))
+        !matches!(self, ImageLoss::Mean(_) | ImageLoss::Weighted { .. })
     }
 
     /// dLoss/d(output values), laid out like `Output::values`. `f` may be any frame of the right size when
@@ -75,6 +79,10 @@ impl ImageLoss {
         let n = v.len().max(1) as f32;
         match self {
             ImageLoss::Mean(_) => Ok(vec![1.0 / n; v.len()]),
+            ImageLoss::Weighted { weights, .. } => {
+                self.eval(f)?; // checks the size
+                Ok(weights.iter().map(|w| w / n).collect())
+            }
             ImageLoss::L2To { target, .. } => {
                 self.eval(f)?; // checks the size
                 Ok(v.iter().zip(target).map(|(&a, &b)| 2.0 * (a - b) / n).collect())
@@ -99,8 +107,9 @@ impl ImageLoss {
                 let v = o.values(f)?;
                 Ok(v.iter().map(|&x| x as f64).sum::<f64>() / v.len().max(1) as f64)
             }
-            ImageLoss::L2To { output, target } => {
+            ImageLoss::L2To { output, target: values } | ImageLoss::Weighted { output, weights: values } => {
                 let v = output.values(f)?;
+                let target = values;
                 if v.len() != target.len() {
                     return Err(Error::Invalid(format!(
                         "loss target has {} values, the {}x{} render has {}",
@@ -110,7 +119,11 @@ impl ImageLoss {
                         v.len()
                     )));
                 }
-                Ok(v.iter().zip(target).map(|(&a, &b)| (a as f64 - b as f64).powi(2)).sum::<f64>() / v.len() as f64)
+                let sum: f64 = match self {
+                    ImageLoss::Weighted { .. } => v.iter().zip(target).map(|(&a, &w)| a as f64 * w as f64).sum(),
+                    _ => v.iter().zip(target).map(|(&a, &b)| (a as f64 - b as f64).powi(2)).sum(),
+                };
+                Ok(sum / v.len() as f64)
             }
         }
     }

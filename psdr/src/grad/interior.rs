@@ -1,6 +1,7 @@
 //! Reverse mode (vector-Jacobian product) of the radiance image for parameters that do not move geometry:
 //! emitter radiance, material albedo, roughness and specular constants, albedo and roughness texels, uv scale
-//! and rotation.
+//! and rotation, and a procedural material's graph parameters and tint (its whole albedo texture's gradient
+//! accumulated, then chained through the graph's backward, `ProceduralChain`).
 //! The interior term only: these
 //! parameters create no discontinuities, so there is no boundary term for them.
 //!
@@ -22,8 +23,9 @@ use crate::error::{Error, Result};
 use crate::render::bsdf::BsdfParams;
 use crate::render::cpu::frame_params;
 use crate::render::layout::{TextureGpu, NONE};
+use crate::render::texture::texture_footprint;
 use crate::render::SceneData;
-use crate::scene::{Color, RenderSettings, Scalar, Scene};
+use crate::scene::{Color, Procedural, RenderSettings, Scalar, Scene};
 use glam::{Vec2, Vec3};
 use psdr_materials::{TextureTransform, TextureView, TransformGrad};
 
@@ -59,6 +61,24 @@ pub struct GradLayout {
     uv_scale: Vec<Option<usize>>,
     uv_rotation: Vec<Option<usize>>,
     uv_transform: Vec<TextureTransform>,
+    /// (texture, offset) of whole albedo textures whose every texel's gradient is accumulated (past `len`),
+    /// and the procedural materials those gradients are chained into.
+    albedo_maps: Vec<(u32, usize)>,
+    chains: Vec<ProceduralChain>,
+    /// Length of the gradient vector the passes accumulate: `len` plus the whole textures.
+    pub(super) extended_len: usize,
+}
+
+/// A procedural material some of whose graph parameters or tint are requested.
+#[derive(Clone, Debug)]
+struct ProceduralChain {
+    texture: u32,
+    procedural: Procedural,
+    /// Offset of the texture's texel gradients (3 per texel) in the extended gradient.
+    texels_at: usize,
+    /// (offset in the graph's float parameters, entries, offset in the gradient) of each requested parameter.
+    params: Vec<(usize, usize, usize)>,
+    tint: Option<usize>,
 }
 
 impl GradLayout {
@@ -98,6 +118,9 @@ impl GradLayout {
                     offset: [m.uv_transform.offset.x as f64, m.uv_transform.offset.y as f64],
                 })
                 .collect(),
+            albedo_maps: vec![],
+            chains: vec![],
+            extended_len: 0,
         };
         for p in params {
             let n = p.get(scene)?.len();
@@ -143,10 +166,42 @@ impl GradLayout {
                     let t = m.normal_map.expect("checked by get");
                     l.normal_texels.push((t as u32, y * scene.textures[t].width + x, at));
                 }
+                ParamPath::GraphParam { material, .. } | ParamPath::ProceduralTint(material) => {
+                    let mat = &scene.materials[scene.material_index(material).expect("checked")];
+                    let (Some(proc), Color::Texture(t)) = (&mat.procedural, mat.albedo) else {
+                        unreachable!("checked by get")
+                    };
+                    let c = match l.chains.iter().position(|c| c.texture == t as u32) {
+                        Some(c) => c,
+                        None => {
+                            l.chains.push(ProceduralChain {
+                                texture: t as u32,
+                                procedural: proc.clone(),
+                                texels_at: 0,
+                                params: vec![],
+                                tint: None,
+                            });
+                            l.chains.len() - 1
+                        }
+                    };
+                    match p {
+                        ParamPath::GraphParam { name, .. } => {
+                            let (g_at, g_len) = proc.float_param(&proc.load_graph()?, name)?;
+                            l.chains[c].params.push((g_at, g_len, at));
+                        }
+                        _ => l.chains[c].tint = Some(at),
+                    }
+                }
                 _ => return Err(unsupported()),
             }
             l.offsets.push(at);
             l.len += n;
+        }
+        l.extended_len = l.len;
+        for c in &mut l.chains {
+            c.texels_at = l.extended_len;
+            l.albedo_maps.push((c.texture, c.texels_at));
+            l.extended_len += (c.procedural.size * c.procedural.size * 3) as usize;
         }
         let has =
             |list: &[(u32, u32, usize)], t: Option<usize>| t.is_some_and(|t| list.iter().any(|e| e.0 as usize == t));
@@ -161,7 +216,10 @@ impl GradLayout {
                     || has(&l.rough_texels, rough_tex);
                 if all {
                     Wanted::All
-                } else if l.albedo[m].is_some() || has(&l.texels, albedo_tex) {
+                } else if l.albedo[m].is_some()
+                    || has(&l.texels, albedo_tex)
+                    || albedo_tex.is_some_and(|t| l.albedo_maps.iter().any(|e| e.0 as usize == t))
+                {
                     Wanted::Albedo
                 } else {
                     Wanted::Nothing
@@ -175,6 +233,25 @@ impl GradLayout {
                 });
         Ok(l)
     }
+
+    /// The requested gradients (`len` values) from the extended vector the passes accumulated: whole-texture
+    /// gradients chained through their procedural graphs (texels = clamp(tint · albedo(params), 0, 1)).
+    pub(super) fn finish(&self, mut grad: Vec<f64>) -> Result<Vec<f64>> {
+        for c in &self.chains {
+            let (mut ev, base) = c.procedural.evaluate()?;
+            let g_texels = &grad[c.texels_at..c.texels_at + base.len()];
+            let (d_params, d_tint) = c.procedural.backward(&mut ev, &base, g_texels, !c.params.is_empty());
+            if let Some(o) = c.tint {
+                grad[o..o + 3].copy_from_slice(&d_tint);
+            }
+            for &(g_at, n, o) in &c.params {
+                let d = d_params.as_ref().expect("asked for");
+                grad[o..o + n].copy_from_slice(&d[g_at..g_at + n]);
+            }
+        }
+        grad.truncate(self.len);
+        Ok(grad)
+    }
 }
 
 /// dLoss/dθ for the marked parameters, given dLoss/d(radiance) per pixel channel (`adjoint`, w·h·3).
@@ -187,7 +264,7 @@ pub fn radiance_vjp(
     let (w, h) = (d.camera.width as usize, d.camera.height as usize);
     check_adjoint(adjoint, w * h * 3)?;
     let fp = frame_params(d, settings);
-    Ok(accumulate_blocks(h, layout.len, |rows, grad| {
+    layout.finish(accumulate_blocks(h, layout.extended_len, |rows, grad| {
         let mut rec = PathRecord::default();
         for y in rows {
             for x in 0..w {
@@ -257,6 +334,14 @@ pub(super) fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVer
         for &(t, texel, o) in l.texels.iter().filter(|e| e.0 == tex) {
             let wgt = bilinear_weight(&d.textures[t as usize], v.uv, texel);
             add3(grad, Some(o), d_albedo * wgt);
+        }
+        for &(t, o) in l.albedo_maps.iter().filter(|e| e.0 == tex) {
+            let f = texture_footprint(&d.textures[t as usize], v.uv);
+            let (fx, fy) = (f.fx, f.fy);
+            for (texel, wgt) in f.texel.iter().zip([(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy])
+            {
+                add3(grad, Some(o + 3 * *texel as usize), d_albedo * wgt);
+            }
         }
         // The primal clamps roughness to [0, 1]; a clamped lookup does not move.
         let tex = d.materials[m].roughness_tex;

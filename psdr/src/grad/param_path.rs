@@ -31,6 +31,14 @@ pub enum ParamPath {
         x: u32,
         y: u32,
     },
+    /// A continuous parameter of a procedural material's graph (1 float, or 3 for a colour); setting it
+    /// bakes the material's albedo texture anew.
+    GraphParam {
+        material: String,
+        name: String,
+    },
+    /// Per-channel gain on a procedural material's graph albedo (3 floats).
+    ProceduralTint(String),
     /// UV transform scale (2) and rotation in degrees (1).
     UvScale(String),
     UvRotation(String),
@@ -71,6 +79,10 @@ impl FromStr for ParamPath {
             ("material", "roughness") => ParamPath::MaterialRoughness(name),
             ("material", "specular") => ParamPath::MaterialSpecular(name),
             ("material", "uv_scale") => ParamPath::UvScale(name),
+            ("material", "tint") => ParamPath::ProceduralTint(name),
+            ("material", f) if f.starts_with("graph.") && f.len() > "graph.".len() => {
+                ParamPath::GraphParam { material: name, name: f["graph.".len()..].to_string() }
+            }
             ("material", "uv_rotation") => ParamPath::UvRotation(name),
             ("material", f) if f.starts_with("albedo.texel[") => texel(TextureSlot::Albedo)?,
             ("material", f) if f.starts_with("roughness.texel[") => texel(TextureSlot::Roughness)?,
@@ -83,7 +95,7 @@ impl FromStr for ParamPath {
             _ => {
                 return Err(bad(
                     "unknown parameter; known: light/N/radiance, material/N/{albedo,roughness,specular,uv_scale,\
-                 uv_rotation,albedo.texel[x,y],roughness.texel[x,y],normal_map.texel[x,y]}, \
+                 uv_rotation,albedo.texel[x,y],roughness.texel[x,y],normal_map.texel[x,y],tint,graph.PARAM}, \
                  object/N/{translation,yaw,rotation,scale,vertices}",
                 ))
             }
@@ -107,6 +119,8 @@ impl fmt::Display for ParamPath {
                 };
                 write!(f, "material/{material}/{s}.texel[{x},{y}]")
             }
+            GraphParam { material, name } => write!(f, "material/{material}/graph.{name}"),
+            ProceduralTint(n) => write!(f, "material/{n}/tint"),
             UvScale(n) => write!(f, "material/{n}/uv_scale"),
             UvRotation(n) => write!(f, "material/{n}/uv_rotation"),
             Translation(n) => write!(f, "object/{n}/translation"),
@@ -137,6 +151,12 @@ impl ParamPath {
                 let tex = &scene.textures[t];
                 tex.texels[i..i + tex.channels as usize].to_vec()
             }
+            GraphParam { material: m, name } => {
+                let p = procedural(scene, self, m)?;
+                let (at, len) = p.float_param(&p.load_graph()?, name)?;
+                p.params.floats[at..at + len].iter().map(|&v| v as f32).collect()
+            }
+            ProceduralTint(n) => procedural(scene, self, n)?.tint.to_array().to_vec(),
             UvScale(n) => scene.materials[material(scene, self, n)?].uv_transform.scale.to_array().to_vec(),
             UvRotation(n) => vec![scene.materials[material(scene, self, n)?].uv_transform.rotation_deg],
             Translation(n) => scene.objects[object(scene, self, n)?].pose.translation.to_array().to_vec(),
@@ -181,6 +201,19 @@ impl ParamPath {
             MaterialTexel { .. } => {
                 let (t, i) = texel(scene, self)?;
                 scene.textures[t].texels[i..i + value.len()].copy_from_slice(value);
+            }
+            GraphParam { material: name, name: param } => {
+                let m = material(scene, self, name)?;
+                let mut p = procedural(scene, self, name)?.clone();
+                let (at, len) = p.float_param(&p.load_graph()?, param)?;
+                p.params.floats[at..at + len].iter_mut().zip(value).for_each(|(f, &v)| *f = v as f64);
+                scene.set_procedural(m, p)?;
+            }
+            ProceduralTint(n) => {
+                let m = material(scene, self, n)?;
+                let mut p = procedural(scene, self, n)?.clone();
+                p.tint = v3();
+                scene.set_procedural(m, p)?;
             }
             UvScale(n) => {
                 let m = material(scene, self, n)?;
@@ -238,6 +271,13 @@ fn material(scene: &Scene, p: &ParamPath, name: &str) -> Result<usize> {
     scene.material_index(name).ok_or_else(|| not_found(p, "material", name))
 }
 
+fn procedural<'a>(scene: &'a Scene, p: &ParamPath, name: &str) -> Result<&'a crate::scene::Procedural> {
+    scene.materials[material(scene, p, name)?]
+        .procedural
+        .as_ref()
+        .ok_or_else(|| Error::Invalid(format!("{p}: material '{name}' is not procedural (no graph generates it)")))
+}
+
 fn emitter(scene: &Scene, p: &ParamPath, name: &str) -> Result<Vec3> {
     let o = &scene.objects[object(scene, p, name)?];
     o.emitter.map(|e| e.radiance).ok_or_else(|| Error::Invalid(format!("{p}: object '{name}' does not emit")))
@@ -286,6 +326,8 @@ mod tests {
             "material/oak/normal_map.texel[0,1]",
             "material/oak/uv_scale",
             "material/oak/uv_rotation",
+            "material/oak/tint",
+            "material/oak/graph.grain_warp",
             "object/sofa_0/translation",
             "object/sofa_0/yaw",
             "object/sofa_0/rotation",
@@ -294,7 +336,14 @@ mod tests {
         ] {
             assert_eq!(s.parse::<ParamPath>().unwrap().to_string(), s);
         }
-        for bad in ["object/x", "object//translation", "object/x/color", "material/m/albedo.texel[1]", "x/y/z"] {
+        for bad in [
+            "object/x",
+            "object//translation",
+            "object/x/color",
+            "material/m/albedo.texel[1]",
+            "material/m/graph.",
+            "x/y/z",
+        ] {
             assert!(bad.parse::<ParamPath>().is_err(), "{bad} should not parse");
         }
     }

@@ -3,6 +3,8 @@
 //! - `Linear`: θ = u, clamped into [lower, upper] after each step (albedo in [0, 1], roughness in [0.02, 1]).
 //! - `Log`: θ = exp(u) per component: positive, and steps are relative (radiance, scale, uv scale).
 //! - `UniformLog`: θ = θ₀ · exp(u) with one u for all components (uniform scale keeps an object's proportions).
+//! - `Range`: θ = lower + u · (upper − lower), u in [0, 1]: a procedural graph's parameters, whose declared
+//!   ranges differ by orders of magnitude (a gap of 0..0.15, a warp of 0..2.5), so a rate is a fraction of one.
 //! - `free`: components that may move; the others keep their start value (translation `free: "xz"` moves an
 //!   object in the floor plane only, so one standing on the floor keeps its height).
 
@@ -17,6 +19,7 @@ pub enum Space {
     Linear,
     Log,
     UniformLog,
+    Range,
 }
 
 /// Learning-rate schedule: the factor applied to a group's rate at iteration t of T.
@@ -123,6 +126,9 @@ pub fn defaults(path: &ParamPath) -> (Space, f32, f32, f64) {
         Yaw(_) | Rotation(_) => (Space::Linear, -inf, inf, 0.02),
         Scale(_) => (Space::Log, 1e-3, 1e3, 0.02),
         Vertices(_) => (Space::Linear, -inf, inf, 0.002),
+        // Bounds from the graph (ParamSpec::new); the rate is a fraction of the range.
+        GraphParam { .. } => (Space::Range, 0.0, 1.0, 0.02),
+        ProceduralTint(_) => (Space::Log, 1e-3, 1e3, 0.02),
     }
 }
 
@@ -130,7 +136,16 @@ impl ParamSpec {
     /// The default spec of `path` at the scene's current value.
     pub fn new(scene: &Scene, path: ParamPath) -> Result<ParamSpec> {
         let start = path.get(scene)?;
-        let (space, lower, upper, lr) = defaults(&path);
+        let (space, mut lower, mut upper, lr) = defaults(&path);
+        if let ParamPath::GraphParam { material, name } = &path {
+            let p = scene.materials[scene.material_index(material).expect("checked by get")]
+                .procedural
+                .as_ref()
+                .expect("checked by get");
+            let info = p.load_graph()?.param(name).cloned().expect("checked by get");
+            lower = info.min.iter().cloned().fold(f64::INFINITY, f64::min) as f32;
+            upper = info.max.iter().cloned().fold(f64::NEG_INFINITY, f64::max) as f32;
+        }
         Ok(ParamSpec {
             free: vec![true; start.len()],
             path,
@@ -166,7 +181,11 @@ impl ParamSpec {
         if self.lower.is_nan() || self.upper.is_nan() || self.lower > self.upper {
             return bad(format!("bounds [{}, {}] are empty", self.lower, self.upper));
         }
-        if self.space != Space::Linear && self.start.iter().any(|&v| v <= 0.0) {
+        if self.space == Space::Range && !(self.lower.is_finite() && self.upper.is_finite() && self.upper > self.lower)
+        {
+            return bad(format!("a range parametrisation needs finite bounds, not [{}, {}]", self.lower, self.upper));
+        }
+        if matches!(self.space, Space::Log | Space::UniformLog) && self.start.iter().any(|&v| v <= 0.0) {
             return bad(format!("a log parametrisation needs positive values, the start is {:?}", self.start));
         }
         if self.free.len() != self.start.len() {
@@ -188,6 +207,7 @@ impl ParamSpec {
         match self.space {
             Space::Linear => theta.iter().map(|&v| v as f64).collect(),
             Space::Log => theta.iter().map(|&v| (v.max(1e-30) as f64).ln()).collect(),
+            Space::Range => theta.iter().map(|&v| (v as f64 - self.lower as f64) / self.range()).collect(),
             Space::UniformLog => {
                 // Mean log ratio to the start: exact when θ is a multiple of θ₀.
                 let n = theta.len().max(1) as f64;
@@ -204,6 +224,7 @@ impl ParamSpec {
         let mut theta: Vec<f32> = match self.space {
             Space::Linear => u.iter().map(|&v| v as f32).collect(),
             Space::Log => u.iter().map(|&v| v.exp() as f32).collect(),
+            Space::Range => u.iter().map(|&v| (self.lower as f64 + v * self.range()) as f32).collect(),
             Space::UniformLog => self.start.iter().map(|&s| (s as f64 * u[0].exp()) as f32).collect(),
         };
         for (i, t) in theta.iter_mut().enumerate() {
@@ -220,8 +241,13 @@ impl ParamSpec {
         match self.space {
             Space::Linear => (0..theta.len()).map(g).collect(),
             Space::Log => (0..theta.len()).map(|i| g(i) * theta[i] as f64).collect(),
+            Space::Range => (0..theta.len()).map(|i| g(i) * self.range()).collect(),
             Space::UniformLog => vec![(0..theta.len()).map(|i| g(i) * theta[i] as f64).sum()],
         }
+    }
+
+    fn range(&self) -> f64 {
+        self.upper as f64 - self.lower as f64
     }
 
     /// Projects u so that every θ component lies in [lower, upper].
@@ -230,6 +256,7 @@ impl ParamSpec {
         match self.space {
             Space::Linear => u.iter_mut().for_each(|v| *v = v.clamp(lo, hi)),
             Space::Log => u.iter_mut().for_each(|v| *v = v.clamp(lo.max(1e-30).ln(), hi.ln())),
+            Space::Range => u.iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0)),
             Space::UniformLog => {
                 // The tightest bound over components: θ₀ᵢ·e^u within [lo, hi] for every i.
                 let (mut ulo, mut uhi) = (f64::NEG_INFINITY, f64::INFINITY);
@@ -269,7 +296,7 @@ mod tests {
     /// θ → u → θ is the identity in every space, and the chain rule of grad_u matches differences of to_theta.
     #[test]
     fn parametrisations_invert_and_differentiate() {
-        for space in [Space::Linear, Space::Log, Space::UniformLog] {
+        for space in [Space::Linear, Space::Log, Space::UniformLog, Space::Range] {
             let start = vec![0.5f32, 2.0, 1.5];
             let spec = ParamSpec {
                 path: "object/a/scale".parse().unwrap(),

@@ -7,7 +7,7 @@ use crate::grad::ParamPath;
 use crate::scene::{Color, Scalar, Scene};
 
 /// Every parameter a wildcard can select, in scene order: light radiances; per material its constant albedo,
-/// roughness and specular, uv scale and rotation; per object translation, yaw, rotation and scale. Texels and
+/// roughness and specular, a procedural one's tint and graph parameters, uv scale and rotation; per object translation, yaw, rotation and scale. Texels and
 /// vertices are left out (thousands of entries that no pattern like `material/*/*` should sweep in).
 pub fn scene_parameters(scene: &Scene) -> Vec<ParamPath> {
     let mut out = vec![];
@@ -26,6 +26,13 @@ pub fn scene_parameters(scene: &Scene) -> Vec<ParamPath> {
         }
         if matches!(m.specular, Scalar::Constant(_)) {
             out.push(ParamPath::MaterialSpecular(n()));
+        }
+        if let Some(p) = &m.procedural {
+            out.push(ParamPath::ProceduralTint(n()));
+            // A graph that no longer loads is reported when a parameter of it is used, not here.
+            for name in p.float_param_names().unwrap_or_default() {
+                out.push(ParamPath::GraphParam { material: n(), name });
+            }
         }
         out.push(ParamPath::UvScale(n()));
         out.push(ParamPath::UvRotation(n()));

@@ -3,11 +3,12 @@
 use super::file::*;
 use super::obj::load_obj;
 use super::{
-    box_mesh, rectangle_mesh, sphere_mesh, Camera, Color, Emitter, Material, Object, Pose, RenderSettings, Scalar,
-    Scene, Texture, TextureEncoding, UvTransform,
+    box_mesh, rectangle_mesh, sphere_mesh, Camera, Color, Emitter, Material, Object, Pose, Procedural, RenderSettings,
+    Scalar, Scene, Texture, TextureEncoding, UvTransform,
 };
 use crate::error::{Error, Result};
 use glam::{EulerRot, Mat4, Quat, Vec2, Vec3};
+use psdr_materials::ParamKind;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -183,7 +184,53 @@ impl Loader<'_> {
                 offset: Vec2::from(u.offset.unwrap_or([0.0, 0.0])),
             },
         };
-        Ok(Material { name: m.name.clone(), albedo, roughness, specular, normal_map, uv_transform })
+        let mut material =
+            Material { name: m.name.clone(), albedo, roughness, specular, normal_map, uv_transform, procedural: None };
+        if let Some(p) = &m.procedural {
+            let proc = self.procedural(p, &format!("{field}.procedural"))?;
+            let texture = proc.bake().map_err(|e| self.err(format!("{field}.procedural"), e.to_string()))?;
+            self.textures.push(texture);
+            material.albedo = Color::Texture(self.textures.len() - 1);
+            material.procedural = Some(proc);
+        }
+        Ok(material)
+    }
+
+    fn procedural(&self, p: &ProceduralFile, field: &str) -> Result<Procedural> {
+        let graph = if psdr_materials::library::source(&p.graph).is_some() {
+            p.graph.clone()
+        } else {
+            self.base.join(&p.graph).display().to_string()
+        };
+        let size = p.size.unwrap_or(256);
+        if !(4..=4096).contains(&size) {
+            return Err(self.err(format!("{field}.size"), format!("{size} texels is not in 4..4096")));
+        }
+        let mut proc = Procedural::new(&graph, size).map_err(|e| self.err(format!("{field}.graph"), e.to_string()))?;
+        let g = proc.load_graph().map_err(|e| self.err(format!("{field}.graph"), e.to_string()))?;
+        for (name, value) in &p.params {
+            let f = format!("{field}.params.{name}");
+            let info =
+                g.param(name).ok_or_else(|| self.err(&f, format!("graph '{}' has no such parameter", p.graph)))?;
+            let values: Vec<f64> = match value {
+                serde_json::Value::Number(n) => n.as_f64().into_iter().collect(),
+                serde_json::Value::Array(a) => a.iter().filter_map(|v| v.as_f64()).collect(),
+                _ => vec![],
+            };
+            if values.len() != info.len || values.iter().any(|v| !v.is_finite()) {
+                return Err(self.err(&f, format!("expected {} finite number(s)", info.len)));
+            }
+            match info.kind {
+                ParamKind::Int => proc.params.ints[info.offset] = values[0].round() as i64,
+                _ => proc.params.floats[info.offset..info.offset + info.len].copy_from_slice(&values),
+            }
+        }
+        if let Some(t) = p.tint {
+            proc.tint = finite3(t)
+                .filter(|t| t.min_element() >= 0.0)
+                .ok_or_else(|| self.err(format!("{field}.tint"), "expected three finite non-negative numbers"))?;
+        }
+        Ok(proc)
     }
 
     fn shape(&mut self, s: &ShapeFile, field: &str, materials: &mut Vec<Material>) -> Result<Object> {

@@ -1,5 +1,6 @@
 //! Materials: Lambertian diffuse + GGX specular layer, each parameter a constant or a texture.
 
+use super::Procedural;
 use glam::{Vec2, Vec3};
 
 /// An RGB parameter: a constant (linear) or a texture index into `Scene::textures`.
@@ -50,6 +51,9 @@ pub struct Material {
     /// Tangent-space normal map (RGB in [0,1] -> n = 2c - 1), texture index.
     pub normal_map: Option<usize>,
     pub uv_transform: UvTransform,
+    /// Where the albedo texture comes from when a procedural graph generates it (`albedo` is then that
+    /// texture, kept baked at the graph's parameters by `Scene::set_procedural` and parameter writes).
+    pub procedural: Option<Procedural>,
 }
 
 impl Material {
@@ -61,6 +65,7 @@ impl Material {
             specular: Scalar::Constant(0.0),
             normal_map: None,
             uv_transform: UvTransform::default(),
+            procedural: None,
         }
     }
 }

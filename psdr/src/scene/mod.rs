@@ -9,6 +9,7 @@ mod mesh;
 mod obj;
 mod pose;
 mod primitives;
+mod procedural;
 mod save;
 mod texture;
 pub mod validate;
@@ -21,6 +22,7 @@ pub use mesh::{Emitter, MeshPart, Object};
 pub use obj::{load_obj, MtlMaterial, ObjMesh};
 pub use pose::Pose;
 pub use primitives::{box_mesh, rectangle_mesh, sphere_mesh};
+pub use procedural::Procedural;
 pub use save::save_scene;
 pub use weld::{weld, Welding};
 
@@ -68,5 +70,21 @@ impl Scene {
     }
     pub fn triangle_count(&self) -> usize {
         self.objects.iter().flat_map(|o| &o.parts).map(|p| p.indices.len()).sum()
+    }
+
+    /// Makes material `m`'s albedo the procedural graph `p` baked (into its texture if it already has one of
+    /// its own from a graph, else a new one).
+    pub fn set_procedural(&mut self, m: usize, p: Procedural) -> crate::Result<()> {
+        let texture = p.bake()?;
+        let mat = &mut self.materials[m];
+        match (&mat.procedural, mat.albedo) {
+            (Some(_), Color::Texture(t)) => self.textures[t] = texture,
+            _ => {
+                self.textures.push(texture);
+                mat.albedo = Color::Texture(self.textures.len() - 1);
+            }
+        }
+        mat.procedural = Some(p);
+        Ok(())
     }
 }

@@ -36,19 +36,22 @@ pub fn save_scene(scene: &Scene, path: &Path) -> Result<()> {
     let materials = scene
         .materials
         .iter()
-        .map(|m| MaterialFile {
-            name: m.name.clone(),
-            albedo: Some(value(m.albedo)),
-            roughness: Some(scalar(m.roughness)),
-            specular: Some(scalar(m.specular)),
-            normal_map: m.normal_map.map(texture_file),
-            uv_transform: Some(UvTransformFile {
-                scale: Some(m.uv_transform.scale.to_array().to_vec()),
-                rotation_deg: Some(m.uv_transform.rotation_deg),
-                offset: Some(m.uv_transform.offset.to_array()),
-            }),
+        .map(|m| -> Result<MaterialFile> {
+            Ok(MaterialFile {
+                name: m.name.clone(),
+                albedo: Some(value(m.albedo)),
+                roughness: Some(scalar(m.roughness)),
+                specular: Some(scalar(m.specular)),
+                normal_map: m.normal_map.map(texture_file),
+                uv_transform: Some(UvTransformFile {
+                    scale: Some(m.uv_transform.scale.to_array().to_vec()),
+                    rotation_deg: Some(m.uv_transform.rotation_deg),
+                    offset: Some(m.uv_transform.offset.to_array()),
+                }),
+                procedural: m.procedural.as_ref().map(procedural_file).transpose()?,
+            })
         })
-        .collect();
+        .collect::<Result<Vec<_>>>()?;
     let mut shapes = vec![];
     for (i, o) in scene.objects.iter().enumerate() {
         let rel = format!("meshes/{i:03}_{}.obj", file_safe(&o.name));
@@ -111,6 +114,24 @@ pub fn save_scene(scene: &Scene, path: &Path) -> Result<()> {
     };
     let text = serde_json::to_string_pretty(&file).map_err(|e| Error::io(path, e))?;
     write_atomically(path, |tmp| std::fs::write(tmp, &text).map_err(|e| Error::io(tmp, e)))
+}
+
+/// A procedural albedo's source: every parameter by name, so the file reads without the graph's defaults.
+fn procedural_file(p: &super::Procedural) -> Result<ProceduralFile> {
+    let g = p.load_graph()?;
+    let params = g
+        .params
+        .iter()
+        .map(|info| {
+            let v = match info.kind {
+                psdr_materials::ParamKind::Int => serde_json::json!(p.params.ints[info.offset]),
+                _ if info.len == 1 => serde_json::json!(p.params.floats[info.offset]),
+                _ => serde_json::json!(p.params.floats[info.offset..info.offset + info.len]),
+            };
+            (info.name.clone(), v)
+        })
+        .collect();
+    Ok(ProceduralFile { graph: p.graph.clone(), params, size: Some(p.size), tint: Some(p.tint.to_array()) })
 }
 
 /// Part names as OBJ group names: the part's own when it is one token, else `partN` (the scene maps parts to

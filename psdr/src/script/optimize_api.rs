@@ -139,9 +139,10 @@ pub fn specs(scene: &Scene, opts: &Map) -> Result<Vec<ParamSpec>> {
                             "linear" => Space::Linear,
                             "log" => Space::Log,
                             "uniform_log" => Space::UniformLog,
+                            "range" => Space::Range,
                             other => {
                                 return Err(Error::Invalid(format!(
-                                    "{}: space '{other}' (linear, log, uniform_log)",
+                                    "{}: space '{other}' (linear, log, uniform_log, range)",
                                     spec.path
                                 )))
                             }
