@@ -1,12 +1,19 @@
 //! Material choice for a crop (weight-free: texture descriptor + mean colour) and the texture-transform search,
 //! on crops of library materials seen through a known transform (scale 1.5-3, rotation 0 or 45 degrees) under
-//! a known light with 2 % noise. Stated: the true material in the top 3 in at least 70 % of the cases (measured:
-//! 7 of 8, 6 of them first); where it is found, its rotation recovered (modulo 90 degrees: tiles and checkers
-//! look the same turned by 90) in at least 80 % (measured 6 of 7) and its scale within a factor 1.25 in at least
-//! 60 % (measured 5 of 7: a carpet's loops and planks' grain have no single scale the descriptor pins down; the
-//! issue's target is every case, not met yet).
+//! a known light with 2 % noise, views mip-filtered as a camera averages a fine texture. Stated: the true
+//! material in the top 3 in at least 70 % of the cases (measured: 8 of 8, all first); where it is found, its
+//! rotation recovered where the texture shows it (the found transform's view differs from the true one's by
+//! a texture distance above `SAME_LOOK`; a glaze or a polished concrete looks the same at any rotation, tiles
+//! the same turned by 90 degrees) in at least 80 %, and its scale within a factor 1.25 in at least 80 %
+//! (measured 7 of 8: a knit's loops are matched at 0.65 of their scale; the target is every case).
+//! Before the views were mip-filtered they aliased (several texels per pixel), a 2 % change of scale changed
+//! them completely, and the scale was within 1.25 in 5 of 7.
 
+use psdr::loss::{texture_loss, Tensor};
 use psdr::stages::{library_textures, search_materials, transformed_view};
+
+/// Two views this close (texture distance) look the same: a rotation between them is not visible.
+const SAME_LOOK: f32 = 0.05;
 use psdr_tests::SplitMix64;
 
 #[test]
@@ -14,6 +21,11 @@ fn library_materials_are_found_with_their_transforms() {
     let t = std::time::Instant::now();
     let library = library_textures(128).unwrap();
     eprintln!("{} library textures in {:.1} s", library.len(), t.elapsed().as_secs_f32());
+    // The rotation check can fail: stripes turned by 45 degrees do not look the same.
+    let stripes = library.iter().find(|t| t.name == "wallpaper_stripes").unwrap();
+    let view = |r: f32| Tensor::constant(transformed_view(stripes, 2.0, r, 64));
+    let turned = texture_loss(&view(45.0), &view(0.0)).unwrap().item().unwrap();
+    assert!(turned > 4.0 * SAME_LOOK, "stripes turned by 45 degrees look {turned} from upright ones");
     let mut rng = SplitMix64(11);
     let cases: Vec<(usize, f32, f32)> =
         (0..8).map(|k| ((k * 37 + 5) % library.len(), [1.5f32, 3.0][k % 2], [0.0f32, 45.0][(k / 2) % 2])).collect();
@@ -39,8 +51,15 @@ fn library_materials_are_found_with_their_transforms() {
             found += 1;
             let ratio = m.scale / scale;
             scale_ok += usize::from((0.8..=1.25).contains(&ratio));
-            rotation_ok += usize::from((m.rotation_deg - rotation).rem_euclid(90.0) < 1e-3);
-            eprintln!("  found: scale {} (x{ratio:.2}), rotation {}", m.scale, m.rotation_deg);
+            // The truth's view against the found rotation's at the true scale: the same look counts as found.
+            let want = Tensor::constant(transformed_view(&library[i], scale, rotation, 64));
+            let seen = Tensor::constant(transformed_view(&library[i], scale, m.rotation_deg, 64));
+            let apart = texture_loss(&seen, &want).unwrap().item().unwrap();
+            rotation_ok += usize::from(m.rotation_deg == rotation || apart < SAME_LOOK);
+            eprintln!(
+                "  found: scale {} (x{ratio:.2}), rotation {} (looks {apart:.3} from the true rotation's)",
+                m.scale, m.rotation_deg
+            );
         }
     }
     eprintln!(
@@ -49,5 +68,5 @@ fn library_materials_are_found_with_their_transforms() {
     );
     assert!(in_top3 * 10 >= cases.len() * 7, "true material in the top 3 in {in_top3} of {}", cases.len());
     assert!(rotation_ok * 10 >= found * 8, "rotation recovered in {rotation_ok} of {found}");
-    assert!(scale_ok * 10 >= found * 6, "scale within 1.25 in {scale_ok} of {found}");
+    assert!(scale_ok * 10 >= found * 8, "scale within 1.25 in {scale_ok} of {found}");
 }

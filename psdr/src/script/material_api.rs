@@ -5,8 +5,9 @@
 //! `segments` maps a homogeneous material's name to the mask of the photo's pixels that show it. Both change
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
 //! `texture_surfaces(s, photo, segments, #{spp, top_k, colour_weight, min_contrast, min_crop, max_crop,
-//! samples, library_size})` gives the segments that show a texture a procedural material from the library
-//! (`stages::surface_textures`), recorded as `surface_textures` (crops, top matches, decisions).
+//! samples, library_size, graph_iters, graph_lr})` gives the segments that show a texture a procedural material
+//! from the library, its graph fitted to the crop (`stages::surface_textures`, `stages::graph_fit`), recorded
+//! as `surface_textures` (crops, top matches, decisions, the graph fits).
 
 use super::engine::{check_photo, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
@@ -106,10 +107,12 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
             "samples" => o.samples = n.clamp(1.0, 8.0) as usize,
             "contrast_tolerance" => o.contrast_tolerance = n.max(0.0) as f32,
             "library_size" => library_size = n.clamp(16.0, 1024.0) as usize,
+            "graph_iters" => o.graph_fit.iters = n.max(0.0) as usize,
+            "graph_lr" => o.graph_fit.lr = n.max(0.0),
             other => {
                 return Err(Error::Invalid(format!(
                     "{what}: unknown option '{other}' (spp, top_k, colour_weight, min_contrast, min_crop, max_crop, \
-                     samples, contrast_tolerance, library_size)"
+                     samples, contrast_tolerance, library_size, graph_iters, graph_lr)"
                 )))
             }
         }

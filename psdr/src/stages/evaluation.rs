@@ -7,6 +7,7 @@
 //! the luminance at full size), and the albedos the fit gives each surface the truth shows (floor, walls,
 //! ceiling, every piece of furniture), pixel by pixel through both scenes' albedo images.
 
+use crate::loss::{Image, Tensor};
 use crate::render::Frame;
 use crate::scene::{Camera, Object, Scene};
 use crate::vision::canonical_class;
@@ -206,12 +207,16 @@ fn albedo_segment(o: &Object) -> Option<String> {
 
 /// Per surface the truth shows on at least 0.5 % of the pixels: the mean albedo of the fitted scene's render
 /// and of the truth's over the truth's pixels of that surface, and their distance relative to the truth's
-/// (|fitted - truth| / |truth|, RGB).
+/// (|fitted - truth| / |truth|, RGB); where the truth's albedo there has texture, `texture_error`: the texture
+/// descriptor distance (`loss::texture_loss`: 0 for the same statistics, 1 for a flat colour against the
+/// truth's texture) between the two albedo images, each divided by its mean colour, on the surface's squarest
+/// rectangle (at least 24 pixels a side): a procedural material's pattern, judged where pixels cannot align.
 pub fn albedo_errors(truth: &Scene, fitted_frame: &Frame, truth_frame: &Frame) -> Value {
     let n = truth_frame.object_id.len();
+    let segment_of: Vec<Option<String>> = truth.objects.iter().map(albedo_segment).collect();
     let mut sums: Vec<(String, [f64; 3], [f64; 3], usize)> = vec![];
     for (p, &id) in truth_frame.object_id.iter().enumerate() {
-        let Some(seg) = truth.objects.get(id as usize).and_then(albedo_segment) else { continue };
+        let Some(seg) = segment_of.get(id as usize).cloned().flatten() else { continue };
         let k = match sums.iter().position(|s| s.0 == seg) {
             Some(k) => k,
             None => {
@@ -234,10 +239,43 @@ pub fn albedo_errors(truth: &Scene, fitted_frame: &Frame, truth_frame: &Frame) -
             let norm = |v: [f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
             let err = norm([f[0] - t[0], f[1] - t[1], f[2] - t[2]]) / norm(t).max(1e-6);
             worst = worst.max(err);
-            json!({ "surface": seg, "pixels": count, "fitted": f, "truth": t, "error_rel": err })
+            let mask: Vec<bool> = truth_frame
+                .object_id
+                .iter()
+                .map(|&id| segment_of.get(id as usize).is_some_and(|s| s.as_deref() == Some(seg.as_str())))
+                .collect();
+            let texture = texture_error(fitted_frame, truth_frame, &mask);
+            json!({ "surface": seg, "pixels": count, "fitted": f, "truth": t, "error_rel": err,
+                    "texture_error": texture })
         })
         .collect();
     json!({ "surfaces": surfaces, "worst_error_rel": worst })
+}
+
+/// `texture_loss` of the fitted albedo against the truth's on the mask's squarest rectangle, both divided by
+/// their mean colours; None where it is under 24 pixels a side or the truth's albedo there is flat (local
+/// contrast under 2 %).
+fn texture_error(fitted: &Frame, truth: &Frame, mask: &[bool]) -> Option<f32> {
+    let (w, h) = (truth.width as usize, truth.height as usize);
+    let m = Image::new(w, h, 1, mask.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect()).ok()?;
+    let r = crate::script::squarest_rect(&m).ok()??;
+    if r.w.min(r.h) < crate::loss::MIN_CROP {
+        return None;
+    }
+    // Each crop divided by its mean colour: the pattern, not the colour (the mean error says that).
+    let image = |f: &Frame| -> Option<Tensor> {
+        let img = Image::new(w, h, 3, f.albedo.clone()).ok()?;
+        let mut c = crate::loss::crop(&Tensor::constant(img), r.x, r.y, r.w, r.h).ok()?.value().clone();
+        let n = (c.width * c.height) as f32;
+        let mean: [f32; 3] = std::array::from_fn(|k| c.data.iter().skip(k).step_by(3).sum::<f32>() / n);
+        c.data.iter_mut().enumerate().for_each(|(i, v)| *v /= mean[i % 3].max(1e-4));
+        Some(Tensor::constant(c))
+    };
+    let truth_crop = image(truth)?;
+    if crate::stages::contrast(truth_crop.value()) < 0.02 {
+        return None;
+    }
+    crate::loss::texture_loss(&image(fitted)?, &truth_crop).ok()?.item()
 }
 
 pub fn evaluate(

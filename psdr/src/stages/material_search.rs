@@ -3,12 +3,14 @@
 //! parameters is viewed through a texture transform over a crop-sized patch (uv 0..1), and compared with the
 //! crop by the scale-free texture descriptor loss (Gram matrices of a fixed filter bank, `loss::texture_loss`)
 //! plus the relative distance of the mean colours. A first pass ranks the library at a few scales; the leaders
-//! then get the transform search (scales 0.5-8 in steps of 2^(1/4), rotations -45, 0, 45, 90 degrees). Crops
+//! then get the transform search (scales 0.5-8 in steps of 2^(1/4), rotations -45, 0, 45, 90 degrees, then the
+//! scale refined around the best in steps of 2^(1/16) and 2^(1/32)). Crops
 //! should be albedo: the photo's colour divided by the shading the fitted lights give (see the caller).
 
+use super::texture_view::{texture_view, UvGrid};
 use crate::error::{Error, Result};
 use crate::loss::{texture_loss, Image, Tensor};
-use psdr_materials::{library, Evaluator, TextureTransform, TextureView};
+use psdr_materials::{library, Evaluator};
 
 /// A library material's albedo texture at default parameters.
 #[derive(Clone, Debug)]
@@ -38,57 +40,10 @@ pub fn transformed_view(tex: &LibraryTexture, scale: f32, rotation_deg: f32, siz
     view_at(tex, scale, rotation_deg, &UvGrid::unit_square(size))
 }
 
-/// The surface's uv under each pixel of a crop (`samples` per pixel, averaged: a pixel's footprint), as the
-/// camera sees it: perspective and all.
-#[derive(Clone, Debug)]
-pub struct UvGrid {
-    pub width: usize,
-    pub height: usize,
-    /// Row-major pixels, each with its samples' uvs.
-    pub uvs: Vec<Vec<[f64; 2]>>,
-}
-
-impl UvGrid {
-    /// A `size` x `size` crop of a surface facing the camera, uv 0..1 across it (v up the image).
-    pub fn unit_square(size: usize) -> UvGrid {
-        let uvs = (0..size * size)
-            .map(|p| vec![[((p % size) as f64 + 0.5) / size as f64, 1.0 - ((p / size) as f64 + 0.5) / size as f64]])
-            .collect();
-        UvGrid { width: size, height: size, uvs }
-    }
-
-    /// The largest extent of the uvs along u or v: how much surface the crop shows (from the pixels' mean uvs,
-    /// widened by half a pixel at each end: a unit square's span is 1).
-    pub fn span(&self) -> f64 {
-        let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
-        for samples in self.uvs.iter().filter(|s| !s.is_empty()) {
-            let n = samples.len() as f64;
-            for k in 0..2 {
-                let c = samples.iter().map(|uv| uv[k]).sum::<f64>() / n;
-                (lo[k], hi[k]) = (lo[k].min(c), hi[k].max(c));
-            }
-        }
-        let pixels = self.width.max(self.height).max(2) as f64;
-        ((hi[0] - lo[0]).max(hi[1] - lo[1]) * pixels / (pixels - 1.0)).max(1e-9)
-    }
-}
-
-/// The library texture as the crop's pixels would show it through the transform.
+/// The library texture as the crop's pixels would show it through the transform (mip-filtered,
+/// `texture_view`).
 pub fn view_at(tex: &LibraryTexture, scale: f32, rotation_deg: f32, grid: &UvGrid) -> Image {
-    let view = TextureView { width: tex.size, height: tex.size, channels: 3, texels: &tex.albedo };
-    let t = TextureTransform { scale: [scale as f64; 2], rotation_deg: rotation_deg as f64, offset: [0.0, 0.0] };
-    let mut data = Vec::with_capacity(grid.width * grid.height * 3);
-    let mut px = [0.0f64; 3];
-    for samples in &grid.uvs {
-        let mut sum = [0.0f64; 3];
-        for uv in samples {
-            t.lookup(&view, *uv, &mut px);
-            (0..3).for_each(|c| sum[c] += px[c]);
-        }
-        let n = samples.len().max(1) as f64;
-        data.extend(sum.iter().map(|v| (*v / n) as f32));
-    }
-    Image { width: grid.width, height: grid.height, channels: 3, data }
+    texture_view(tex.size, &tex.albedo, scale, rotation_deg, grid)
 }
 
 /// One candidate and how well it matches.
@@ -235,6 +190,17 @@ pub fn search_materials_on(
                 let (d, t) = score(tex, scale, rotation)?;
                 if d < best.distance {
                     (best.scale, best.rotation_deg, best.distance, best.texture_distance) = (scale, rotation, d, t);
+                }
+            }
+        }
+        // The scale between the grid's points: two finer passes around the best (steps 2^(1/16), then 2^(1/32)).
+        for step in [16.0f32, 32.0] {
+            let centre = best.scale;
+            for k in [-2, -1, 1, 2] {
+                let scale = centre * 2f32.powf(k as f32 / step);
+                let (d, t) = score(tex, scale, best.rotation_deg)?;
+                if d < best.distance {
+                    (best.scale, best.distance, best.texture_distance) = (scale, d, t);
                 }
             }
         }

@@ -12,6 +12,7 @@
 mod albedo_division;
 mod depth_calibration;
 mod evaluation;
+mod graph_fit;
 mod instance_merge;
 mod light_fit;
 mod light_init;
@@ -26,18 +27,20 @@ mod pose_search;
 mod room_init;
 mod room_scene;
 mod surface_textures;
+mod texture_view;
 mod window_lights;
 
 pub use albedo_division::{divide_albedos, search_light_scale, LightScale, LightScaleOptions, Segment};
 pub use depth_calibration::{calibrate_relative_depth, DepthCalibration};
 pub use evaluation::{evaluate, relative_rmse_downsampled, room_in_camera_frame, ssim_luminance};
+pub use graph_fit::{fit_graph_to_crop, GraphFit, GraphFitOptions};
 pub use instance_merge::{merge_split_instances, MergedInstance};
 pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use light_init::{init_lights, LightInitOptions};
 pub use light_placement::{refine_light_placement, LightPlacement, LightPlacementOptions};
 pub use material_search::{
     contrast, library_textures, search_materials, search_materials_on, transformed_view, view_at, LibraryTexture,
-    MaterialMatch, UvGrid,
+    MaterialMatch,
 };
 pub use material_segments::material_segments;
 pub use object_init::{
@@ -48,4 +51,5 @@ pub use point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};
 pub use room_init::{init_room, RoomEstimate, RoomInitOptions};
 pub use room_scene::{room_scene, room_summary, ROOM_SURFACES};
 pub use surface_textures::{texture_surfaces, SurfaceTexture, SurfaceTextureOptions};
+pub use texture_view::{texture_view, texture_view_backward, Mips, UvGrid};
 pub use window_lights::add_visible_windows;

@@ -15,20 +15,24 @@
 //!    the crop's local contrast closely (|contrast(view) - contrast(crop)| below `contrast_tolerance`, 0.5,
 //!    of the crop's: the flat colour's error is the whole contrast). The descriptor ranks
 //!    materials but cannot make this call: it sees colour, which dominates its energy on a plank floor;
-//! 5. applied as the library material's albedo baked at default parameters, tinted per channel so its mean is
-//!    the fitted albedo (the lights' fit stays valid), with the found uv scale and rotation.
+//! 5. applied as the library material's procedural albedo (`scene::Procedural`), its graph's parameters, tint
+//!    and uv scale first fitted to the crop by the texture descriptor (`graph_fit`: no rendering, exact
+//!    gradients), then tinted per channel so its mean is the fitted albedo (the lights' fit stays valid), with
+//!    the found rotation. The joint optimisation may move the graph further.
 //!
 //! Every segment's crop, top matches and decision are returned (result.json keeps them as alternatives).
 
 use super::albedo_division::Segment;
-use super::material_search::{search_materials_on, view_at, LibraryTexture, MaterialMatch, UvGrid};
+use super::graph_fit::{fit_graph_to_crop, GraphFit, GraphFitOptions};
+use super::material_search::{search_materials_on, view_at, LibraryTexture, MaterialMatch};
+use super::texture_view::UvGrid;
 use crate::error::{Error, Result};
-use crate::loss::Image;
+use crate::loss::{Image, Tensor};
 use crate::render::bvh::trace_closest;
 use crate::render::camera::camera_ray;
 use crate::render::layout::SHADING_HAS_UVS;
 use crate::render::{render_cpu, SceneData};
-use crate::scene::{Color, Scene, Texture, UvTransform};
+use crate::scene::{Color, Procedural, Scene, UvTransform};
 use crate::script::squarest_rect;
 use glam::{Vec2, Vec3};
 
@@ -49,6 +53,9 @@ pub struct SurfaceTextureOptions {
     /// The best match is applied when its local contrast is within this fraction of the crop's (a flat colour
     /// misses it by the whole of it).
     pub contrast_tolerance: f32,
+    /// The chosen material's graph parameters and tint fitted to the crop (`graph_fit`; 0 iterations: the
+    /// library's parameters, tinted).
+    pub graph_fit: GraphFitOptions,
 }
 
 impl Default for SurfaceTextureOptions {
@@ -62,6 +69,7 @@ impl Default for SurfaceTextureOptions {
             max_crop: 64,
             samples: 3,
             contrast_tolerance: 0.5,
+            graph_fit: GraphFitOptions::default(),
         }
     }
 }
@@ -81,6 +89,8 @@ pub struct SurfaceTexture {
     pub chosen: Option<MaterialMatch>,
     /// Why it stayed homogeneous, or what was applied.
     pub decision: String,
+    /// The fit of the applied material's graph to the crop.
+    pub graph_fit: Option<GraphFit>,
 }
 
 /// Runs steps 1-5 on every segment (see the module) and changes the chosen materials in `scene`.
@@ -113,6 +123,7 @@ pub fn texture_surfaces(
             matches: vec![],
             chosen: None,
             decision: String::new(),
+            graph_fit: None,
         };
         let Color::Constant(albedo) = material.albedo else {
             entry.decision = "already textured".into();
@@ -160,7 +171,7 @@ pub fn texture_surfaces(
         let c = local_contrast(&view_at(tex, best.scale, best.rotation_deg, &grid));
         entry.match_contrast = Some(c);
         if (c - entry.contrast).abs() < opts.contrast_tolerance * entry.contrast {
-            apply(scene, seg.material, tex, albedo, &best);
+            entry.graph_fit = apply(scene, seg.material, tex, albedo, &best, &grid, &crop, &opts.graph_fit)?;
             entry.decision = format!("{} at scale {:.3}, rotation {}", best.name, best.scale, best.rotation_deg);
             entry.chosen = Some(best);
         } else {
@@ -172,19 +183,33 @@ pub fn texture_surfaces(
     Ok(out)
 }
 
-/// The crop of photo x albedo / render (the photo's albedo under the fitted shading), clamped to 0..1.
+/// The crop of photo x albedo / render (the photo's albedo under the fitted shading), clamped to 0..1. The
+/// render is blurred first (sigma `SHADING_BLUR` pixels): inside a crop of one surface the shading is smooth,
+/// and its Monte Carlo noise, divided into the crop, would read as fine texture to the descriptor (a graph fit
+/// then widens plank seams to match it).
 fn albedo_crop(photo: &[f32], render: &[f32], albedo: Vec3, w: usize, r: [usize; 4]) -> Image {
-    let mut data = Vec::with_capacity(r[2] * r[3] * 3);
+    let mut shading = Vec::with_capacity(r[2] * r[3] * 3);
     for y in r[1]..r[1] + r[3] {
-        for x in r[0]..r[0] + r[2] {
+        shading.extend_from_slice(&render[3 * (y * w + r[0])..3 * (y * w + r[0] + r[2])]);
+    }
+    let shading = Image { width: r[2], height: r[3], channels: 3, data: shading };
+    let shading = crate::loss::blur(&Tensor::constant(shading), SHADING_BLUR).map(|t| t.value().data.clone());
+    let shading = shading.expect("a positive blur of a non-empty crop");
+    let mut data = Vec::with_capacity(r[2] * r[3] * 3);
+    for (i, y) in (r[1]..r[1] + r[3]).enumerate() {
+        for (j, x) in (r[0]..r[0] + r[2]).enumerate() {
             let p = 3 * (y * w + x);
+            let q = 3 * (i * r[2] + j);
             for c in 0..3 {
-                data.push((photo[p + c] * albedo[c] / render[p + c].max(1e-4)).clamp(0.0, 1.0));
+                data.push((photo[p + c] * albedo[c] / shading[q + c].max(1e-4)).clamp(0.0, 1.0));
             }
         }
     }
     Image { width: r[2], height: r[3], channels: 3, data }
 }
+
+/// Pixels of blur on the shading a crop's albedo is divided by.
+const SHADING_BLUR: f32 = 2.0;
 
 /// The luminance's standard deviation relative to its local mean (a box blur an eighth of the crop wide,
 /// twice): texture, not the smooth shading a fit leaves behind (lights a little off, a highlight).
@@ -259,14 +284,39 @@ fn uv_grid(d: &SceneData, material: u32, r: [usize; 4], samples: usize) -> Optio
     Some(UvGrid { width: r[2], height: r[3], uvs })
 }
 
-/// The library texture as the material's albedo, tinted to mean `albedo`, through the found transform.
-fn apply(scene: &mut Scene, material: usize, tex: &LibraryTexture, albedo: Vec3, m: &MaterialMatch) {
+/// The library material as the material's procedural albedo through the found transform, its graph fitted to
+/// the crop (when `fit.iters` > 0), tinted to mean `albedo`.
+#[allow(clippy::too_many_arguments)]
+fn apply(
+    scene: &mut Scene,
+    material: usize,
+    tex: &LibraryTexture,
+    albedo: Vec3,
+    m: &MaterialMatch,
+    grid: &UvGrid,
+    crop: &Image,
+    fit: &GraphFitOptions,
+) -> Result<Option<GraphFit>> {
     let n = (tex.size * tex.size) as f32;
     let mean = Vec3::from_array(std::array::from_fn(|c| tex.albedo.iter().skip(c).step_by(3).sum::<f32>() / n));
-    let gain = albedo / mean.max(Vec3::splat(1e-4));
-    let texels = tex.albedo.chunks(3).flat_map(|p| (0..3).map(move |c| (p[c] * gain[c]).clamp(0.0, 1.0))).collect();
-    scene.textures.push(Texture { path: None, width: tex.size as u32, height: tex.size as u32, channels: 3, texels });
+    let mut p = Procedural::new(&tex.name, tex.size as u32)?;
+    p.tint = albedo / mean.max(Vec3::splat(1e-4));
+    let mut scale = m.scale;
+    let report = if fit.iters > 0 {
+        Some(fit_graph_to_crop(&mut p, &mut scale, m.rotation_deg, grid, crop, fit)?)
+    } else {
+        None
+    };
+    // The segment's fitted albedo is the better estimate of the mean (the crop is one part of the surface,
+    // under the shading's local errors): the tint brings the fitted graph back to it (twice: clamping).
+    for _ in 0..2 {
+        let baked = p.bake()?;
+        let n = (baked.width * baked.height) as f32;
+        let mean = Vec3::from_array(std::array::from_fn(|c| baked.texels.iter().skip(c).step_by(3).sum::<f32>() / n));
+        p.tint *= albedo / mean.max(Vec3::splat(1e-4));
+    }
+    scene.set_procedural(material, p)?;
     let mat = &mut scene.materials[material];
-    mat.albedo = Color::Texture(scene.textures.len() - 1);
-    mat.uv_transform = UvTransform { scale: Vec2::splat(m.scale), rotation_deg: m.rotation_deg, offset: Vec2::ZERO };
+    mat.uv_transform = UvTransform { scale: Vec2::splat(scale), rotation_deg: m.rotation_deg, offset: Vec2::ZERO };
+    Ok(report)
 }
