@@ -1,6 +1,7 @@
 // Ray-scene intersection: a compressed wide BVH (8 children per node, Ylitie et al. 2017, built by obvhs) and
 // Moller-Trumbore triangles. Rust twin: psdr/src/render/bvh.rs (same function names, same order of operations;
 // the Rust twin's `Traversal` methods are the traversal_* functions here, on invocation-private globals).
+// GLSL only: safe_inverse_1 (Rust inverts the three lanes at once), node_byte (Rust indexes its [u8; 8] fields).
 #ifndef PSDR_BVH_GLSL
 #define PSDR_BVH_GLSL
 #include "scene_buffers.glsl"

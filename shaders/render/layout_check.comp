@@ -3,6 +3,7 @@
 // writes its fields, in declaration order, as raw 32-bit words. The Rust test (tests/tests/vk_consistency.rs)
 // compares them with the fields it wrote, so any offset or padding mismatch between layout.rs and layout.glsl
 // shows up as a wrong word.
+// Rust twin: psdr/src/render/layout.rs (the structs it reads). GLSL only: put (appends one word to the output).
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 1) in;
 #include "layout.glsl"

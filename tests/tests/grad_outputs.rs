@@ -2,6 +2,7 @@
 //! the sum of the gradients each gives alone (same seeds: the same edge samples and paths), to float
 //! rounding, and a loss that reads nothing gives zero.
 
+use psdr::backend::CpuBackend;
 use psdr::grad::{outputs_vjp, BoundarySamples, OutputAdjoints, ParamPath};
 use psdr::render::SceneData;
 use psdr::scene::load_scene;
@@ -36,7 +37,7 @@ fn adjoints_of_several_outputs_sum_like_separate_passes() {
         .map(|p| p.parse().unwrap())
         .collect();
     let b = BoundarySamples { primary: 4096, secondary: 1 };
-    let together = outputs_vjp(&scene, &data, &scene.settings, &params, &all, b).unwrap();
+    let together = outputs_vjp(&scene, &data, &scene.settings, &params, &all, b, &mut CpuBackend).unwrap();
     let parts = [
         OutputAdjoints { radiance: all.radiance.clone(), ..Default::default() },
         OutputAdjoints { depth: all.depth.clone(), ..Default::default() },
@@ -46,7 +47,7 @@ fn adjoints_of_several_outputs_sum_like_separate_passes() {
     let mut sum = vec![0.0f64; together.len()];
     let mut nonzero = [false; 4];
     for (k, p) in parts.iter().enumerate() {
-        let g = outputs_vjp(&scene, &data, &scene.settings, &params, p, b).unwrap();
+        let g = outputs_vjp(&scene, &data, &scene.settings, &params, p, b, &mut CpuBackend).unwrap();
         nonzero[k] = g.iter().any(|&v| v != 0.0);
         sum.iter_mut().zip(g).for_each(|(s, v)| *s += v);
     }
@@ -55,6 +56,7 @@ fn adjoints_of_several_outputs_sum_like_separate_passes() {
     for (i, (a, b)) in together.iter().zip(&sum).enumerate() {
         assert!((a - b).abs() <= 1e-5 * scale, "entry {i}: together {a} vs separately {b}");
     }
-    let none = outputs_vjp(&scene, &data, &scene.settings, &params, &OutputAdjoints::default(), b).unwrap();
+    let none =
+        outputs_vjp(&scene, &data, &scene.settings, &params, &OutputAdjoints::default(), b, &mut CpuBackend).unwrap();
     assert!(none.iter().all(|&v| v == 0.0));
 }

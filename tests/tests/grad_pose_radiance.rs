@@ -105,8 +105,9 @@ fn degenerate_configurations_give_finite_gradients() {
 /// The box with a bumpy tangent-space normal map (8x8 texels, tilts up to ~10°): its shading normals turn with
 /// the box and slide over its faces with the hit points, and the lamp straddles the horizon of its front face
 /// (horizon boundary). The box only turns about the vertical and no visible face is seen within 10° of grazing:
-/// the view-side terminator of shading normals (a known missing boundary term, see the README) stays out of
-/// the image.
+/// there the renderer turns shading normals that face away toward the viewer (README, "Terminator"), which keeps
+/// the integrand continuous (no boundary term is missing) but not smooth, and central differences across the
+/// turn's kink need small steps and many seeds (`normal_mapped_face_near_grazing` covers it).
 #[test]
 fn normal_mapped_object_translation_and_rotation() {
     let mut s = box_in_the_dark();

@@ -1,10 +1,14 @@
 //! CPU backend against the Vulkan backend (whatever device psdr-vk picks: lavapipe here, a GPU where one exists)
-//! on the same scenes and seeds: seconds per frame (best of 3 after a warm-up) and Mrays/s, plus the
-//! images' agreement, written to benchmarks/results/backends.csv and backends.svg.
+//! on the same scenes and seeds, for the primal render and for the adjoint pass of light radiances and albedo
+//! constants (`Backend::radiance_vjp`, a random adjoint image): seconds per pass (best of 3 after a warm-up),
+//! Mpaths/s (pixels x spp per second) and Mrays/s for the primal, plus the backends' agreement (the images'
+//! mean, the gradients' worst component), written to benchmarks/results/backends.csv and backends.svg.
 //! `cargo run -p psdr-benchmarks --release --bin bench_backends [-- OUT.csv]`
 
 use psdr::backend::{Backend, CpuBackend, VkBackend};
+use psdr::grad::{GradLayout, ParamPath};
 use psdr::render::{Frame, SceneData};
+use psdr::scene::Color;
 use psdr::scene::{load_scene, sphere_mesh, Object, Pose, Scene};
 use std::time::Instant;
 
@@ -25,6 +29,35 @@ fn room_large_mesh(width: u32, height: u32, spp: u32) -> anyhow::Result<Scene> {
     let pose = Pose { translation: glam::Vec3::new(0.9, 0.6, -1.2), ..Default::default() };
     s.objects.push(Object { name: "big_sphere".into(), parts: vec![sphere], pose, emitter: None });
     Ok(s)
+}
+
+/// Seconds of the adjoint pass (best of `reps` after a warm-up) and its gradient: every light radiance and
+/// constant albedo, a fixed random adjoint image.
+fn adjoint_best_of(
+    backend: &mut dyn Backend,
+    d: &SceneData,
+    s: &Scene,
+    reps: usize,
+) -> anyhow::Result<(f64, Vec<f64>)> {
+    let mut params: Vec<ParamPath> =
+        s.objects.iter().filter(|o| o.emitter.is_some()).map(|o| ParamPath::LightRadiance(o.name.clone())).collect();
+    params.extend(
+        s.materials
+            .iter()
+            .filter(|m| matches!(m.albedo, Color::Constant(_)))
+            .map(|m| ParamPath::MaterialAlbedo(m.name.clone())),
+    );
+    let layout = GradLayout::new(s, &params)?;
+    let n = (s.camera.width * s.camera.height * 3) as usize;
+    let adjoint: Vec<f32> = (0..n).map(|i| ((i * 7919 % 1000) as f32 / 1000.0 - 0.3) / n as f32).collect();
+    let mut grad = backend.radiance_vjp(d, &s.settings, &layout, &adjoint)?; // warm-up
+    let mut best = f64::INFINITY;
+    for _ in 0..reps {
+        let t = Instant::now();
+        grad = backend.radiance_vjp(d, &s.settings, &layout, &adjoint)?;
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    Ok((best, grad))
 }
 
 fn best_of(backend: &mut dyn Backend, d: &SceneData, s: &Scene, reps: usize) -> anyhow::Result<(f64, Frame)> {
@@ -51,8 +84,8 @@ fn main() -> anyhow::Result<()> {
     let mut vk = VkBackend::new(None)?;
     let mut cpu = CpuBackend;
     let mut csv = String::from(
-        "scene,width,height,spp,triangles,backend,device,seconds,mrays_per_s,image_mean_rel_diff_vs_other_backend,\
-         load_avg_1m\n",
+        "scene,width,height,spp,triangles,pass,backend,device,seconds,mpaths_per_s,mrays_per_s,\
+         rel_diff_vs_other_backend,load_avg_1m\n",
     );
     let mut bars = vec![];
     let cases: Vec<(&str, Scene)> = vec![
@@ -68,12 +101,32 @@ fn main() -> anyhow::Result<()> {
         let mean = |f: &Frame| f.radiance.iter().map(|&x| x as f64).sum::<f64>() / f.radiance.len() as f64;
         let rel = ((mean(&f_cpu) - mean(&f_vk)) / mean(&f_cpu)).abs();
         let (w, h, spp, tris) = (s.camera.width, s.camera.height, s.settings.spp, s.triangle_count());
+        let paths = f64::from(w * h * spp);
         for (backend, t, f, device) in [("cpu", t_cpu, &f_cpu, cpu.name()), ("vk", t_vk, &f_vk, vk.name())] {
-            let mrays = f.rays as f64 / t / 1e6;
-            println!("{name:<16} {w}x{h} {spp:>3} spp  {backend:<3} {t:8.3} s  {mrays:7.2} Mrays/s  ({device})");
+            let (mrays, mpaths) = (f.rays as f64 / t / 1e6, paths / t / 1e6);
+            println!(
+                "{name:<16} {w}x{h} {spp:>3} spp  primal  {backend:<3} {t:8.3} s  {mrays:7.2} Mrays/s  ({device})"
+            );
             let load = load_average();
-            csv += &format!("{name},{w},{h},{spp},{tris},{backend},\"{device}\",{t:.4},{mrays:.3},{rel:.2e},{load}\n");
-            bars.push((format!("{name} {w}x{h}"), backend, mrays));
+            csv += &format!(
+                "{name},{w},{h},{spp},{tris},primal,{backend},\"{device}\",{t:.4},{mpaths:.3},{mrays:.3},{rel:.2e},{load}\n"
+            );
+            bars.push((format!("primal {name} {w}x{h}"), backend, mpaths));
+        }
+        let (t_cpu, g_cpu) = adjoint_best_of(&mut cpu, &d, &s, 3)?;
+        let (t_vk, g_vk) = adjoint_best_of(&mut vk, &d, &s, 3)?;
+        let scale = g_cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
+        let rel = g_cpu.iter().zip(&g_vk).map(|(a, b)| (a - b).abs() / (a.abs() + 1e-6 * scale)).fold(0.0, f64::max);
+        for (backend, t, device) in [("cpu", t_cpu, cpu.name()), ("vk", t_vk, vk.name())] {
+            let mpaths = paths / t / 1e6;
+            println!(
+                "{name:<16} {w}x{h} {spp:>3} spp  adjoint {backend:<3} {t:8.3} s  {mpaths:7.3} Mpaths/s  ({device})"
+            );
+            let load = load_average();
+            csv += &format!(
+                "{name},{w},{h},{spp},{tris},adjoint,{backend},\"{device}\",{t:.4},{mpaths:.3},,{rel:.2e},{load}\n"
+            );
+            bars.push((format!("adjoint {name} {w}x{h}"), backend, mpaths));
         }
     }
     if let Some(dir) = out.parent() {
@@ -93,7 +146,7 @@ fn load_average() -> String {
         .unwrap_or_default()
 }
 
-/// Grouped horizontal bars: Mrays/s of each backend per scene and size.
+/// Grouped horizontal bars: Mpaths/s of each backend per pass, scene and size.
 fn chart(bars: &[(String, &str, f64)], vk: &str, cpu: &str) -> String {
     // One row per scene and size, a bar per backend.
     let mut rows: Vec<(String, Vec<f64>)> = vec![];
@@ -109,8 +162,8 @@ fn chart(bars: &[(String, &str, f64)], vk: &str, cpu: &str) -> String {
         }
     }
     psdr::report::chart::BarChart {
-        title: "Mrays/s, same scenes and seeds (higher is better)".into(),
-        unit: "Mrays/s".into(),
+        title: "Mpaths/s of the primal render and the adjoint pass, same scenes and seeds (higher is better)".into(),
+        unit: "Mpaths/s".into(),
         series: vec![format!("cpu: {cpu}"), format!("vk: {vk}")],
         rows,
         stacked: false,

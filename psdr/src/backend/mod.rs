@@ -1,12 +1,16 @@
-//! One interface over the CPU reference and the Vulkan backend, so every stage runs on either.
+//! One interface over the CPU reference and the Vulkan backend, so every stage runs on either: the primal render
+//! and the adjoint passes.
 
 mod cpu_backend;
+mod vk_adjoint;
 mod vk_backend;
 
 pub use cpu_backend::CpuBackend;
+pub use vk_adjoint::{AdjointParams, MAX_RECORD_DEPTH};
 pub use vk_backend::{layout_check_spirv, VkBackend};
 
 use crate::error::{Error, Result};
+use crate::grad::GradLayout;
 use crate::render::{Frame, SceneData};
 use crate::scene::RenderSettings;
 
@@ -18,6 +22,17 @@ pub trait Backend {
     fn name(&self) -> String;
     /// Renders radiance and all AOVs of `data` with `settings`.
     fn render(&mut self, data: &SceneData, settings: &RenderSettings, progress: Progress) -> Result<Frame>;
+    /// dLoss/dθ of the material and light parameters of `layout` given dLoss/d(radiance) (`grad::radiance_vjp`,
+    /// the interior term). A device computes what its kernels cover and leaves the rest to the CPU reference.
+    fn radiance_vjp(
+        &mut self,
+        data: &SceneData,
+        settings: &RenderSettings,
+        layout: &GradLayout,
+        adjoint: &[f32],
+    ) -> Result<Vec<f64>> {
+        crate::grad::radiance_vjp(data, settings, layout, adjoint)
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

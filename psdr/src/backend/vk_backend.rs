@@ -1,4 +1,4 @@
-//! The Vulkan backend: shaders/path_trace.comp (the GLSL twin of render::path_trace) on any Vulkan device,
+//! The Vulkan backend: shaders/render/path_trace.comp (the GLSL twin of render::path_trace) on any Vulkan device,
 //! lavapipe included. The scene is uploaded once per render; samples run in passes that each add to per-pixel
 //! running sums in sample order, so the result does not depend on the pass size and matches the CPU to float
 //! rounding. The device is chosen by psdr-vk (a discrete GPU first; `PSDR_VK_DEVICE` picks one by name).
@@ -15,12 +15,14 @@ use psdr_vk::{Buffer, Context, ContextOptions, Groups, Kernel, StorageBinding};
 const PASS_PATH_SAMPLES: u64 = 1 << 20;
 
 pub struct VkBackend {
-    ctx: Context,
+    pub(super) ctx: Context,
     path_trace: Kernel<FrameParams>,
-    pass_path_samples: u64,
+    /// The adjoint pass of material and light parameters (shaders/grad/interior/material_light.comp).
+    pub(super) material_light_vjp: Kernel<super::vk_adjoint::AdjointParams>,
+    pub(super) pass_path_samples: u64,
 }
 
-fn backend_error(e: psdr_vk::VkError) -> Error {
+pub(super) fn backend_error(e: psdr_vk::VkError) -> Error {
     Error::Backend(e.to_string())
 }
 
@@ -29,9 +31,11 @@ impl VkBackend {
     pub fn new(device: Option<&str>) -> Result<VkBackend> {
         let options = ContextOptions { device: device.map(str::to_string), ..Default::default() };
         let ctx = Context::with_options(&options).map_err(backend_error)?;
-        let words = psdr_vk::include_spirv!("path_trace").map_err(backend_error)?;
+        let words = psdr_vk::include_spirv!("render/path_trace").map_err(backend_error)?;
         let path_trace = Kernel::new(&ctx, "path_trace", &words, 16).map_err(backend_error)?;
-        Ok(VkBackend { ctx, path_trace, pass_path_samples: PASS_PATH_SAMPLES })
+        let words = psdr_vk::include_spirv!("grad/interior/material_light").map_err(backend_error)?;
+        let material_light_vjp = Kernel::new(&ctx, "material_light_vjp", &words, 12).map_err(backend_error)?;
+        Ok(VkBackend { ctx, path_trace, material_light_vjp, pass_path_samples: PASS_PATH_SAMPLES })
     }
 
     /// Path samples per submitted pass (at least one sample of every pixel per pass).
@@ -45,7 +49,7 @@ impl VkBackend {
 }
 
 /// A device buffer holding `data`, or one zeroed element when `data` is empty (Vulkan has no empty buffers).
-fn upload<T: bytemuck::Pod>(ctx: &Context, name: &str, data: &[T]) -> Result<Buffer<T>> {
+pub(super) fn upload<T: bytemuck::Pod>(ctx: &Context, name: &str, data: &[T]) -> Result<Buffer<T>> {
     if data.is_empty() {
         Buffer::zeroed(ctx, name, 1).map_err(backend_error)
     } else {
@@ -54,6 +58,21 @@ fn upload<T: bytemuck::Pod>(ctx: &Context, name: &str, data: &[T]) -> Result<Buf
 }
 
 impl Backend for VkBackend {
+    /// On the device where the adjoint kernels cover the layout (light radiances, albedo constants), else the
+    /// CPU reference (roughness, specular, texels, uv transforms and procedural graphs are not ported yet).
+    fn radiance_vjp(
+        &mut self,
+        data: &SceneData,
+        settings: &RenderSettings,
+        layout: &crate::grad::GradLayout,
+        adjoint: &[f32],
+    ) -> Result<Vec<f64>> {
+        match self.radiance_vjp_on_device(data, settings, layout, adjoint)? {
+            Some(g) => Ok(g),
+            None => crate::grad::radiance_vjp(data, settings, layout, adjoint),
+        }
+    }
+
     fn name(&self) -> String {
         let c = self.ctx.capabilities();
         format!("vk ({}, {})", c.device_name, c.driver_info)
@@ -65,17 +84,7 @@ impl Backend for VkBackend {
         let (w, h) = (d.camera.width as usize, d.camera.height as usize);
         let n = w * h;
         let nobj = d.object_count as usize;
-        let scene: [&dyn StorageBinding; 9] = [
-            &upload(ctx, "nodes", &d.nodes)?,
-            &upload(ctx, "triangles", &d.triangles)?,
-            &upload(ctx, "shading", &d.shading)?,
-            &upload(ctx, "materials", &d.materials)?,
-            &upload(ctx, "textures", &d.textures)?,
-            &upload(ctx, "texels", &d.texels)?,
-            &upload(ctx, "emitters", &d.emitters)?,
-            &upload(ctx, "lights", &d.lights)?,
-            &upload::<CameraGpu>(ctx, "camera", &[d.camera])?,
-        ];
+        let scene = upload_scene(ctx, d)?;
         let zeros = |name: &str, len: usize| Buffer::<f32>::zeroed(ctx, name, len.max(1)).map_err(backend_error);
         let radiance = zeros("radiance_sums", n * 3)?;
         let depth = zeros("depth_sums", n)?;
@@ -85,7 +94,8 @@ impl Backend for VkBackend {
         let ids = Buffer::<u32>::zeroed(ctx, "object_ids", n).map_err(backend_error)?;
         let rays = Buffer::<u32>::zeroed(ctx, "rays", n).map_err(backend_error)?;
         let outputs: [&dyn StorageBinding; 7] = [&radiance, &depth, &normal, &albedo, &coverage, &ids, &rays];
-        let bindings: Vec<&dyn StorageBinding> = scene.iter().chain(outputs.iter()).copied().collect();
+        let bindings: Vec<&dyn StorageBinding> =
+            scene.iter().map(|b| b.as_ref()).chain(outputs.iter().copied()).collect();
 
         let mut fp = frame_params(d, settings);
         let per_pass = (self.pass_path_samples / n.max(1) as u64).clamp(1, settings.spp as u64) as u32;
@@ -124,7 +134,22 @@ impl Backend for VkBackend {
     }
 }
 
-/// SPIR-V of the layout round-trip kernel (shaders/layout_check.comp), for the layout test.
+/// The scene's buffers, bindings 0-8 of every rendering kernel (shaders/render/scene_buffers.glsl).
+pub(super) fn upload_scene(ctx: &Context, d: &SceneData) -> Result<Vec<Box<dyn StorageBinding>>> {
+    Ok(vec![
+        Box::new(upload(ctx, "nodes", &d.nodes)?),
+        Box::new(upload(ctx, "triangles", &d.triangles)?),
+        Box::new(upload(ctx, "shading", &d.shading)?),
+        Box::new(upload(ctx, "materials", &d.materials)?),
+        Box::new(upload(ctx, "textures", &d.textures)?),
+        Box::new(upload(ctx, "texels", &d.texels)?),
+        Box::new(upload(ctx, "emitters", &d.emitters)?),
+        Box::new(upload(ctx, "lights", &d.lights)?),
+        Box::new(upload::<CameraGpu>(ctx, "camera", &[d.camera])?),
+    ])
+}
+
+/// SPIR-V of the layout round-trip kernel (shaders/render/layout_check.comp), for the layout test.
 pub fn layout_check_spirv() -> Result<Vec<u32>> {
-    psdr_vk::include_spirv!("layout_check").map_err(backend_error)
+    psdr_vk::include_spirv!("render/layout_check").map_err(backend_error)
 }

@@ -1,41 +1,41 @@
-//! Derivatives of rendered images with respect to named scene parameters. So far: parameter paths, image losses,
-//! central finite differences with standard errors (the ground truth), the interior term in reverse mode
-//! for parameters that do not move geometry, and depth/mask gradients w.r.t. poses (interior + primary boundary).
+//! Derivatives of rendered images with respect to named scene parameters (`scene::ParamPath`), by path-space
+//! differentiable rendering: dI/dθ = interior + boundary. Where each piece lives, by what is differentiated:
+//!
+//! | output | parameters | term | function (file) |
+//! |---|---|---|---|
+//! | radiance | lights; material constants, texels, uv transform; procedural graphs and tints | interior: reverse-mode replay of recorded paths | `radiance_vjp` (interior/material_light.rs); for an L2 loss the fused estimator `radiance_vjp_cross` (interior/fused_l2.rs) |
+//! | radiance | object poses, mesh vertices | interior: ray-form replay in dual numbers | `replay_radiance` (interior/geometry.rs; normal maps interior/normal_map.rs), called by `radiance_pose_vjp` (vjp/radiance_pose.rs) |
+//! | radiance | poses, vertices | primary boundary: silhouettes seen by the camera | `primary_boundary` (boundary/primary.rs) |
+//! | radiance | poses, vertices | secondary boundary: direct (shadows) and indirect | `secondary_boundary` (boundary/secondary.rs; candidate edges from boundary/edge_tree.rs over boundary/mesh_edges.rs) |
+//! | radiance | poses, vertices | horizon boundary: a vertex's own tangent plane | `horizon_boundary` (boundary/horizon.rs) |
+//! | depth, masks | poses, vertices | interior (depth only) + primary boundary | `aov_vjp`, `aovs_vjp` (vjp/aov.rs) |
+//! | depth, masks | materials, lights | none (zero) | |
+//! | a loss of any outputs | any | all of the above | `outputs_vjp` (vjp/outputs.rs) |
+//!
+//! Estimators: `analytic_gradient` (estimate/analytic.rs) averages the above over seeds with standard errors;
+//! `central_difference` (estimate/finite_difference.rs) is the truth every test compares with; image losses in
+//! estimate/image_loss.rs. Shared machinery: dual numbers, BSDF derivatives and dual texture lookups (ad/), the
+//! path recorder and the velocity fields of geometric parameters (path/).
 
-mod ad_estimate;
-mod aov_vjp;
-mod bsdf_dual;
-mod bsdf_grad;
-mod cross_adjoint;
-mod dual;
-mod edge_tree;
-mod finite_difference;
-mod geometry_interior;
-mod horizon_boundary;
-mod image_loss;
+mod ad;
+mod boundary;
+mod estimate;
 mod interior;
-mod mesh_edges;
-mod normal_map_grad;
-mod output_adjoints;
-mod param_path;
-mod path_record;
-mod pose_velocity;
-mod primary_edges;
-mod radiance_pose_vjp;
-mod secondary_edges;
+mod path;
+mod vjp;
 
-pub use ad_estimate::{analytic_gradient, AdEstimate, AdOptions, GradientEvaluator, ADJOINT_SEED_OFFSET};
-pub use aov_vjp::{aov_vjp, aovs_vjp, AovAdjoints};
-pub use bsdf_grad::{bsdf_eval_grad, BsdfGrad};
-pub use cross_adjoint::radiance_vjp_cross;
-pub use finite_difference::{central_difference, mean_and_std_err, FdEstimate, FdOptions};
-pub use image_loss::{ImageLoss, Output, PixelwiseAdjoint};
-pub use interior::{radiance_vjp, GradLayout};
-pub use output_adjoints::{in_param_order, moves_geometry, outputs_vjp, OutputAdjoints};
-pub use param_path::{ParamPath, TextureSlot};
-pub use pose_velocity::{PoseComponent, PoseLayout};
-pub use primary_edges::{project, project_velocity, PrimaryEdges};
-pub use radiance_pose_vjp::{radiance_pose_vjp, BoundarySamples};
+pub use crate::scene::{ParamPath, TextureSlot};
+pub use ad::bsdf_grad::{bsdf_eval_grad, BsdfGrad};
+pub use boundary::primary::{project, project_velocity, PrimaryEdges};
+pub use estimate::analytic::{analytic_gradient, AdEstimate, AdOptions, GradientEvaluator, ADJOINT_SEED_OFFSET};
+pub use estimate::finite_difference::{central_difference, mean_and_std_err, FdEstimate, FdOptions};
+pub use estimate::image_loss::{ImageLoss, Output, PixelwiseAdjoint};
+pub use interior::fused_l2::radiance_vjp_cross;
+pub use interior::material_light::{radiance_vjp, GradLayout};
+pub use path::velocity::{PoseComponent, PoseLayout};
+pub use vjp::aov::{aov_vjp, aovs_vjp, AovAdjoints};
+pub use vjp::outputs::{in_param_order, moves_geometry, outputs_vjp, OutputAdjoints};
+pub use vjp::radiance_pose::{radiance_pose_vjp, BoundarySamples};
 
 /// Blocks a parallel gradient accumulation is split into: fixed (the sum's order, hence its rounding, never
 /// depends on the thread count) and few (each holds a full gradient vector, and vertex gradients of a large

@@ -249,7 +249,7 @@ fn evaluate(
         }
         vec![0.0; n]
     } else {
-        outputs_vjp(scene, data, &adj_settings, paths, &adjoints, boundary)?
+        outputs_vjp(scene, data, &adj_settings, paths, &adjoints, boundary, backend)?
     };
     Ok(Evaluation { total, terms, grad, seconds: [t_render, t_loss, t2.elapsed().as_secs_f64()], fused: false })
 }

@@ -9,8 +9,8 @@
 //!   object in the floor plane only, so one standing on the floor keeps its height).
 
 use crate::error::{Error, Result};
-use crate::grad::{ParamPath, TextureSlot};
 use crate::scene::Scene;
+use crate::scene::{ParamPath, TextureSlot};
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -98,7 +98,7 @@ bound_serde!(upper_bound, f32::INFINITY);
 
 /// Serialises a parameter path as its text.
 mod path_text {
-    use crate::grad::ParamPath;
+    use crate::scene::ParamPath;
     use serde::{Deserialize, Deserializer, Serializer};
     pub fn serialize<S: Serializer>(p: &ParamPath, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(&p.to_string())

@@ -3,7 +3,7 @@
 //! without wildcards is parsed as a path, so texels and vertices, which no wildcard expands to, can be named.
 
 use crate::error::{Error, Result};
-use crate::grad::ParamPath;
+use crate::scene::ParamPath;
 use crate::scene::{Color, Scalar, Scene};
 
 /// Every parameter a wildcard can select, in scene order: light radiances; per material its constant albedo,

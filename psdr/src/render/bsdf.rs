@@ -1,5 +1,5 @@
 //! The BSDF: Lambertian diffuse + GGX microfacet specular layer, evaluated in the local shading frame
-//! (z = shading normal). GLSL twin: shaders/bsdf.glsl.
+//! (z = shading normal). GLSL twin: shaders/render/bsdf.glsl.
 //!
 //!   f(wi, wo) = albedo/pi * (1 - F(cos_i)) * (1 - F(cos_o))          diffuse, energy taken by the coat
 //!             + D(h) G1(wi) G1(wo) F(wi.h) / (4 cos_i cos_o)          GGX specular (Smith, separable)

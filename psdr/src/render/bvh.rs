@@ -1,5 +1,5 @@
 //! Ray-scene intersection: a compressed wide BVH (8 children per node, Ylitie et al. 2017, built by obvhs) and
-//! Moller-Trumbore triangles. GLSL twin: shaders/bvh.glsl (same function names, same order of operations).
+//! Moller-Trumbore triangles. GLSL twin: shaders/render/bvh.glsl (same function names, same order of operations).
 //!
 //! Why this layout: a node tests all eight children against the ray in one SIMD step, so the tree is a third as
 //! deep as a binary one, and the 80-byte node (child boxes as 8-bit offsets on the node's grid) is the layout GPU

@@ -1,4 +1,4 @@
-//! Primary rays of the pinhole camera. GLSL twin: shaders/camera.glsl.
+//! Primary rays of the pinhole camera. GLSL twin: shaders/render/camera.glsl.
 
 use super::layout::CameraGpu;
 use glam::Vec3;

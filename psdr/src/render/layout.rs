@@ -1,5 +1,5 @@
 //! Buffer layouts shared by the CPU renderer and the Vulkan kernels.
-//! GLSL twin: shaders/layout.glsl (std430). Field order, sizes and padding must match exactly;
+//! GLSL twin: shaders/render/layout.glsl (std430). Field order, sizes and padding must match exactly;
 //! the layout round-trip test in tests/ writes these from Rust and reads them back from a kernel.
 
 use bytemuck::{Pod, Zeroable};

@@ -1,5 +1,5 @@
 //! Emitters: choosing a light, sampling a point on it, and the emitted radiance / density of a hit.
-//! GLSL twin: shaders/light.glsl.
+//! GLSL twin: shaders/render/light.glsl.
 
 use super::layout::*;
 use super::scene_data::SceneData;

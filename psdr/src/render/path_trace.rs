@@ -1,14 +1,15 @@
 //! The primal integrator: unidirectional path tracing with next-event estimation, MIS (power heuristic)
-//! and Russian roulette, plus the primary-hit AOVs. GLSL twin: shaders/path_trace.comp.
+//! and Russian roulette, plus the primary-hit AOVs; one integrator for the renderer and the adjoint passes'
+//! path recorder (`PathObserver`). GLSL twin: shaders/render/path_trace.comp.
 
 use super::bsdf::{bsdf_at, bsdf_eval_pdf, bsdf_sample_at};
-use super::bvh::{trace_closest, trace_occluded};
+use super::bvh::{trace_closest, trace_occluded, Hit};
 use super::camera::camera_ray;
 use super::layout::*;
 use super::light::{emitted_radiance, light_pdf_area, mis_power, sample_light};
 use super::sampler::*;
 use super::scene_data::SceneData;
-use super::shading::{offset_origin, surface_point};
+use super::shading::{offset_origin, surface_point, SurfacePoint};
 use glam::Vec3;
 
 /// What one camera path returns.
@@ -24,13 +25,91 @@ pub struct PathSample {
     pub rays: u32,
 }
 
+/// A next-event estimate that reached its light, as the integrator computed it.
+#[derive(Clone, Copy, Debug)]
+pub struct NeeEvent {
+    /// The light-selection number (which light: `light::select_light`).
+    pub u_select: f32,
+    /// World direction from the vertex to the light point.
+    pub dir: Vec3,
+    pub emitter: u32,
+    pub radiance: Vec3,
+    /// MIS weight over the light's solid-angle density: the estimate is f · radiance · this.
+    pub w_over_pdf: f32,
+    /// f · cos_o toward the light and that direction in the shading frame.
+    pub f: Vec3,
+    pub wo_local: Vec3,
+}
+
+/// The BSDF-sampled continuation of a path.
+#[derive(Clone, Copy, Debug)]
+pub struct ContinueEvent {
+    /// World direction of the continuation ray.
+    pub dir: Vec3,
+    /// Solid-angle density of the sampled direction, and the roulette survival probability (1 before rr_depth).
+    pub pdf: f32,
+    pub q: f32,
+    /// f · cos / pdf of the sample, and its direction in the shading frame.
+    pub weight: Vec3,
+    pub wo_local: Vec3,
+}
+
+/// What the integrator reports of a path as it traces it, for callers that record paths (the adjoint passes,
+/// grad/path/record.rs). The primal passes `()`, whose methods are empty and compile away, so the renderer and
+/// the recorder run one integrator instead of two hand-synced copies.
+pub trait PathObserver {
+    /// A surface was hit, with throughput `beta` arriving; the events that follow belong to this vertex.
+    #[inline(always)]
+    fn hit(&mut self, _hit: &Hit, _sp: &SurfacePoint, _beta: Vec3) {}
+    /// Emission found at the vertex and its MIS weight (1 where the camera sees it).
+    #[inline(always)]
+    fn emission(&mut self, _emitter: u32, _le: Vec3, _mis: f32) {}
+    /// The path scatters here: the incoming direction in the shading frame.
+    #[inline(always)]
+    fn scatter(&mut self, _wi_local: Vec3) {}
+    #[inline(always)]
+    fn nee(&mut self, _e: &NeeEvent) {}
+    #[inline(always)]
+    fn continuation(&mut self, _e: &ContinueEvent) {}
+}
+
+impl PathObserver for () {}
+
 /// Traces sample `sample` of pixel (px, py).
 pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32) -> PathSample {
+    trace_path_observed(d, fp, px, py, sample, &mut ())
+}
+
+/// `trace_path`, reporting each vertex to `obs`.
+#[inline(always)]
+pub fn trace_path_observed<O: PathObserver>(
+    d: &SceneData,
+    fp: &FrameParams,
+    px: u32,
+    py: u32,
+    sample: u32,
+    obs: &mut O,
+) -> PathSample {
     let cam = &d.camera;
     let s = Sampler { seed: fp.seed, pixel: py * cam.width + px, sample };
     let (jx, jy) = s.get2(DIM_PIXEL_X);
-    let mut dir = camera_ray(cam, px as f32 + jx, py as f32 + jy);
-    let mut origin = Vec3::from(cam.origin);
+    let dir = camera_ray(cam, px as f32 + jx, py as f32 + jy);
+    trace_from(d, fp, &s, Vec3::from(cam.origin), dir, obs)
+}
+
+/// The integrator, from the ray (origin, dir) on, drawing bounce numbers from `s` (the AOVs are those of the
+/// first hit, depth measured along the camera's forward axis).
+#[inline(always)]
+pub fn trace_from<O: PathObserver>(
+    d: &SceneData,
+    fp: &FrameParams,
+    s: &Sampler,
+    origin: Vec3,
+    dir: Vec3,
+    obs: &mut O,
+) -> PathSample {
+    let cam = &d.camera;
+    let (mut origin, mut dir) = (origin, dir);
     let mut out =
         PathSample { radiance: Vec3::ZERO, depth: 0.0, normal: Vec3::ZERO, albedo: Vec3::ZERO, object: NONE, rays: 0 };
     let mut beta = Vec3::ONE;
@@ -41,6 +120,7 @@ pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32
             break;
         };
         let sp = surface_point(d, hit.triangle, hit.u, hit.v, dir);
+        obs.hit(&hit, &sp, beta);
         if depth == 0 {
             out.depth = hit.t * dir.dot(Vec3::from(cam.forward));
             out.normal = sp.ns;
@@ -50,18 +130,23 @@ pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32
         // Emission reached by the previous bounce (or seen directly), MIS-weighted against NEE.
         let le = emitted_radiance(d, hit.triangle, sp.front);
         if le != Vec3::ZERO {
+            let emitter = d.shading[hit.triangle as usize].emitter;
             if depth == 0 {
                 out.radiance += beta * le;
+                obs.emission(emitter, le, 1.0);
             } else {
                 let cos_l = sp.ng.dot(-dir).abs();
                 let light_pdf = light_pdf_area(d, hit.triangle) * hit.t * hit.t / cos_l;
-                out.radiance += beta * le * mis_power(prev_bsdf_pdf, light_pdf);
+                let mis = mis_power(prev_bsdf_pdf, light_pdf);
+                out.radiance += beta * le * mis;
+                obs.emission(emitter, le, mis);
             }
         }
         if depth + 1 >= fp.max_depth {
             break;
         }
         let wi = sp.to_local(-dir);
+        obs.scatter(wi);
         let bsdf = bsdf_at(&sp.bsdf, wi);
         let (u_select, u_lobe) = s.bounce2(depth, DIM_LIGHT_SELECT);
         // Next-event estimation: one point on one light.
@@ -74,13 +159,24 @@ pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32
             let wl = to_light / dist;
             let cos_l = if ls.two_sided { ls.n.dot(-wl).abs() } else { ls.n.dot(-wl) };
             if cos_l > 0.0 && dist > 0.0 {
-                let (f, pdf) = bsdf_eval_pdf(&bsdf, sp.to_local(wl));
+                let wo = sp.to_local(wl);
+                let (f, pdf) = bsdf_eval_pdf(&bsdf, wo);
                 if f != Vec3::ZERO {
                     out.rays += 1;
                     if unoccluded(d, sp.p, sp.ng, ls.p, ls.n) {
                         let light_pdf = ls.pdf_area * dist2 / cos_l;
                         let w = mis_power(light_pdf, pdf);
-                        out.radiance += beta * f * ls.radiance * (w / light_pdf);
+                        let w_over_pdf = w / light_pdf;
+                        out.radiance += beta * f * ls.radiance * w_over_pdf;
+                        obs.nee(&NeeEvent {
+                            u_select,
+                            dir: wl,
+                            emitter: ls.emitter,
+                            radiance: ls.radiance,
+                            w_over_pdf,
+                            f,
+                            wo_local: wo,
+                        });
                     }
                 }
             }
@@ -94,13 +190,15 @@ pub fn trace_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32
         prev_bsdf_pdf = bs.pdf;
         dir = sp.to_world(bs.wo).normalize();
         origin = offset_origin(sp.p, sp.ng, dir);
+        let mut q = 1.0;
         if depth + 1 >= fp.rr_depth {
-            let q = beta.max_element().min(0.95);
+            q = beta.max_element().min(0.95);
             if s.bounce(depth, DIM_ROULETTE) >= q || q.is_nan() {
                 break;
             }
             beta /= q;
         }
+        obs.continuation(&ContinueEvent { dir, pdf: bs.pdf, q, weight: bs.weight, wo_local: bs.wo });
     }
     out
 }

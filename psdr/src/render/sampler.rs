@@ -1,5 +1,5 @@
 //! The counter-based sampler: a random number is a pure function of (seed, pixel, sample, dimension).
-//! GLSL twin: shaders/sampler.glsl. Dimensions come in pairs (2k, 2k + 1); over the samples of one pixel each
+//! GLSL twin: shaders/render/sampler.glsl. Dimensions come in pairs (2k, 2k + 1); over the samples of one pixel each
 //! pair is a shuffled, Owen-scrambled 2-D Sobol sequence (Burley, "Practical Hash-based Owen Scrambling", JCGT
 //! 2020), so the first 2^m samples of a pair form a (0, m, 2)-net: pixel jitter, light and BSDF samples are
 //! stratified (an edge pixel's coverage error falls like N^-3/4 instead of N^-1/2), yet every draw is uniform

@@ -28,7 +28,7 @@ pub struct SceneData {
     pub light_weight: f32,
 }
 
-/// Longest traversal stack (in node groups) the kernels allow (GLSL twin: BVH_STACK_SIZE in shaders/bvh.glsl).
+/// Longest traversal stack (in node groups) the kernels allow (GLSL twin: BVH_STACK_SIZE in shaders/render/bvh.glsl).
 /// Traversal pushes at most one group per level, and an 8-wide tree over millions of triangles is ~10 deep.
 pub const BVH_STACK_SIZE: usize = 32;
 
@@ -311,8 +311,8 @@ fn tree_depth(nodes: &[BvhNode]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grad::ParamPath;
     use crate::scene::load_scene;
+    use crate::scene::ParamPath;
 
     fn room() -> Scene {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json");

@@ -1,5 +1,5 @@
 //! From a ray hit to everything shading needs: position, normals (two-sided, normal-mapped), uv and the
-//! material's parameters at that point. GLSL twin: shaders/shading.glsl.
+//! material's parameters at that point. GLSL twin: shaders/render/shading.glsl.
 
 use super::bsdf::BsdfParams;
 use super::layout::*;

@@ -1,4 +1,4 @@
-//! Texture lookup: bilinear filtering with wrap. GLSL twin: shaders/texture.glsl.
+//! Texture lookup: bilinear filtering with wrap. GLSL twin: shaders/render/texture.glsl.
 //! uv (0,0) is the bottom-left of the image (OBJ convention); texel row 0 is the top row.
 
 use super::layout::TextureGpu;

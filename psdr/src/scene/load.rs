@@ -84,7 +84,7 @@ impl Loader<'_> {
         };
         for (i, path) in f.requires_grad.iter().enumerate() {
             let bad = |e: Error| Error::scene(file, format!("requires_grad[{i}]"), e.to_string());
-            let p: crate::grad::ParamPath = path.parse().map_err(bad)?;
+            let p: super::ParamPath = path.parse().map_err(bad)?;
             p.get(&scene).map_err(bad)?;
             scene.requires_grad.push(p);
         }

@@ -7,6 +7,7 @@ mod load;
 mod material;
 mod mesh;
 mod obj;
+mod param_path;
 mod pose;
 mod primitives;
 mod procedural;
@@ -20,6 +21,7 @@ pub use load::load_scene;
 pub use material::{Color, Material, Scalar, UvTransform};
 pub use mesh::{Emitter, MeshPart, Object};
 pub use obj::{load_obj, MtlMaterial, ObjMesh};
+pub use param_path::{ParamPath, TextureSlot};
 pub use pose::Pose;
 pub use primitives::{box_mesh, rectangle_mesh, sphere_mesh};
 pub use procedural::Procedural;
@@ -58,7 +60,7 @@ pub struct Scene {
     /// The file this scene came from, if any (relative asset paths of exports resolve against it).
     pub source: Option<PathBuf>,
     /// Parameters marked as requiring gradients.
-    pub requires_grad: Vec<crate::grad::ParamPath>,
+    pub requires_grad: Vec<ParamPath>,
 }
 
 impl Scene {

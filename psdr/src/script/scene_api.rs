@@ -3,9 +3,9 @@
 
 use super::engine::{rhai_err, Rr, RunRef};
 use crate::error::{Error, Result};
-use crate::grad::ParamPath;
 use crate::loss::{Image, Tensor};
 use crate::optim::{select, Rendered};
+use crate::scene::ParamPath;
 use crate::scene::{load_scene, save_scene, srgb_to_linear, Scene};
 use glam::EulerRot;
 use rhai::{Array, Dynamic, Engine};

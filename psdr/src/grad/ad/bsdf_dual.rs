@@ -2,7 +2,7 @@
 //! directions and the shading normal, so geometric replays differentiate the BSDF through directions, normals
 //! and texture lookups.
 
-use super::dual::{D, D3};
+use crate::grad::ad::dual::{D, D3};
 use crate::render::bsdf::MIN_ALPHA;
 use std::f32::consts::{FRAC_1_PI, PI};
 

@@ -1,8 +1,8 @@
 //! Derivatives of `bsdf_eval` (f · cos_o) with respect to the material constants, in closed form.
 //! Twin of render/bsdf.rs: the same terms, differentiated by hand.
 
-use super::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
-use super::dual::{D, D3};
+use crate::grad::ad::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
+use crate::grad::ad::dual::{D, D3};
 use crate::render::bsdf::{fresnel_dielectric, ggx_d, ggx_g1, specular_to_eta, BsdfParams, MIN_ALPHA};
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};

@@ -3,7 +3,7 @@
 //! (a furniture mesh has tens of thousands). Culling is conservative: every edge the exact tests in
 //! `secondary_edges` would keep is visited, so the edge distribution built from the visited ones is the same.
 
-use super::mesh_edges::MeshEdge;
+use crate::grad::boundary::mesh_edges::MeshEdge;
 use glam::Vec3;
 use obvhs::bvh2::node::Bvh2Node as BvhNode;
 use obvhs::{aabb::Aabb, bvh2::builder::build_bvh2, BvhBuildParams};
@@ -129,7 +129,7 @@ fn min_dot(a: Vec3, lo: Vec3, hi: Vec3) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grad::mesh_edges::mesh_edges;
+    use crate::grad::boundary::mesh_edges::mesh_edges;
     use crate::render::sampler::Sampler;
     use crate::scene::{load_scene, sphere_mesh, Object, Pose};
 

@@ -7,8 +7,8 @@
 //!     d/dθ ∫ h dω  ∋  ∫_circle [h(ω⁻) − h(ω⁺)] (−dn_g/dθ · ω) dφ,
 //! where ω± lie just above and below the plane. φ is sampled uniformly, both sides share their random numbers.
 
-use super::path_record::{record_from, PathRecord};
-use super::pose_velocity::{PoseComponent, PoseLayout};
+use crate::grad::path::record::{record_from, PathRecord};
+use crate::grad::path::velocity::{PoseComponent, PoseLayout};
 use crate::render::bsdf::bsdf_eval;
 use crate::render::layout::{FrameParams, NONE, SHADING_HAS_NORMALS};
 use crate::render::sampler::Sampler;

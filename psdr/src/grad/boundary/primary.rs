@@ -5,9 +5,9 @@
 //! triangle), when its two triangles face opposite ways from the camera, or when more than two triangles meet
 //! there (`mesh_edges`). Edges hidden behind other geometry are kept: the two-sided evaluation sees no jump.
 
-use super::accumulate_blocks;
-use super::mesh_edges::mesh_edges;
-use super::pose_velocity::PoseLayout;
+use crate::grad::accumulate_blocks;
+use crate::grad::boundary::mesh_edges::mesh_edges;
+use crate::grad::path::velocity::PoseLayout;
 use crate::render::layout::CameraGpu;
 use crate::render::sampler::Sampler;
 use crate::render::SceneData;

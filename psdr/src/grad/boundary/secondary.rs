@@ -12,11 +12,11 @@
 //! (indirect) are both covered, to the path's full depth. Vertices on turning surfaces with shading normals
 //! also get samples of their moving horizon (`horizon_boundary`).
 
-use super::edge_tree::EdgeTree;
-use super::horizon_boundary::{face_normal_velocity, has_horizon_jump, horizon_boundary, HorizonVertex};
-use super::mesh_edges::{mesh_edges, MeshEdge};
-use super::path_record::{record_from, PathRecord};
-use super::pose_velocity::PoseLayout;
+use crate::grad::boundary::edge_tree::EdgeTree;
+use crate::grad::boundary::horizon::{face_normal_velocity, has_horizon_jump, horizon_boundary, HorizonVertex};
+use crate::grad::boundary::mesh_edges::{mesh_edges, MeshEdge};
+use crate::grad::path::record::{record_from, PathRecord};
+use crate::grad::path::velocity::PoseLayout;
 use crate::render::bsdf::bsdf_eval;
 use crate::render::layout::FrameParams;
 use crate::render::sampler::Sampler;

@@ -1,11 +1,11 @@
 //! Analytic (reverse-mode) gradient of an image loss, averaged over independent seeds with a standard error, so
 //! it can be compared with finite differences on equal terms.
 
-use super::output_adjoints::{moves_geometry, outputs_vjp, OutputAdjoints};
-use super::radiance_pose_vjp::BoundarySamples;
-use super::{mean_and_std_err, radiance_vjp_cross, GradLayout, ImageLoss, Output, ParamPath};
 use crate::backend::Backend;
 use crate::error::Result;
+use crate::grad::vjp::outputs::{moves_geometry, outputs_vjp, OutputAdjoints};
+use crate::grad::vjp::radiance_pose::BoundarySamples;
+use crate::grad::{mean_and_std_err, radiance_vjp_cross, GradLayout, ImageLoss, Output, ParamPath};
 use crate::render::{Frame, SceneData};
 use crate::scene::Scene;
 
@@ -133,7 +133,7 @@ fn gradient_on(
             Output::Depth => OutputAdjoints { depth: Some(adjoint), ..Default::default() },
             Output::Mask(o) => OutputAdjoints { masks: vec![(*o, adjoint)], ..Default::default() },
         };
-        runs.push(outputs_vjp(scene, data, &settings, params, &adjoints, boundary)?);
+        runs.push(outputs_vjp(scene, data, &settings, params, &adjoints, boundary, backend)?);
     }
     let len = runs[0].len();
     let (mut mean, mut std_err) = (vec![], vec![]);

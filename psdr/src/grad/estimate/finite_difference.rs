@@ -3,9 +3,9 @@
 //! (correlated sampling cancels most noise), replicas use different seeds, and the spread across replicas gives
 //! the standard error of the mean.
 
-use super::{ImageLoss, ParamPath};
 use crate::backend::Backend;
 use crate::error::{Error, Result};
+use crate::grad::{ImageLoss, ParamPath};
 use crate::render::SceneData;
 use crate::scene::Scene;
 

@@ -17,11 +17,11 @@
 //! Memory: half a pixel's path records per thread (spp/2 x max_depth vertices), reused across pixels; nothing
 //! grows with the image.
 
-use super::image_loss::PixelwiseAdjoint;
-use super::interior::{backward_sweep, normal_map_sweep, GradLayout};
-use super::path_record::{record_path, PathRecord};
-use super::GRAD_BLOCKS;
 use crate::error::{Error, Result};
+use crate::grad::estimate::image_loss::PixelwiseAdjoint;
+use crate::grad::interior::material_light::{backward_sweep, normal_map_sweep, GradLayout};
+use crate::grad::path::record::{record_path, PathRecord};
+use crate::grad::GRAD_BLOCKS;
 use crate::render::cpu::frame_params;
 use crate::render::SceneData;
 use crate::scene::RenderSettings;

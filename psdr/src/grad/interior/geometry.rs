@@ -1,17 +1,18 @@
-//! Interior term of radiance with respect to object poses, in material form: a recorded path is replayed in
-//! dual numbers along one pose component. The primary vertex is the (sliding) hit of the fixed camera ray;
-//! every later vertex is a material point carried by its surface, so moving surfaces change directions,
-//! distances, cosines, normals, BSDF values and (under scale) area elements, while sampling densities, MIS
-//! weights and roulette stay detached. Visibility changes are the boundary terms' job.
+//! Interior term of radiance with respect to object poses and mesh vertices, in ray form: a recorded path is
+//! replayed in dual numbers along one parameter component. Every sampled direction stays fixed (the camera ray,
+//! each continuation and each next-event direction), and every vertex slides along its ray as the surface it
+//! lies on moves (the hit's distance and barycentrics in dual numbers), so normals, texture lookups, cosines
+//! and BSDF values change with it, while sampling densities, light selection, MIS weights and roulette stay
+//! detached. Visibility changes are the boundary terms' job (boundary/).
 
-use super::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
-use super::dual::{D, D3};
-use super::normal_map_grad::{map_normal_dual, turn_toward_viewer, UvFrame};
-use super::path_record::PathRecord;
-use super::pose_velocity::{PoseComponent, PoseLayout};
-use crate::render::layout::{MaterialGpu, TextureGpu, TriangleShading, NONE, SHADING_HAS_NORMALS, SHADING_HAS_UVS};
+use crate::grad::ad::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
+use crate::grad::ad::dual::{D, D3};
+use crate::grad::ad::dual_texture::dual_texture;
+use crate::grad::interior::normal_map::{map_normal_dual, turn_toward_viewer, UvFrame};
+use crate::grad::path::record::PathRecord;
+use crate::grad::path::velocity::{PoseComponent, PoseLayout};
+use crate::render::layout::{MaterialGpu, TriangleShading, NONE, SHADING_HAS_NORMALS, SHADING_HAS_UVS};
 use crate::render::shading::apply_uv_transform;
-use crate::render::texture::texture_sample;
 use crate::render::SceneData;
 use glam::{Vec2, Vec3};
 
@@ -89,22 +90,6 @@ impl DualTriangle {
 struct DualPoint {
     ns: D3,
     bsdf: BsdfParamsD,
-}
-
-/// Channel `c` of the bilinear lookup at uv and its derivative along duv (render/texture.rs's lookup,
-/// differentiated inside the texel cell; the four texels are read back through the lookup at their centres).
-pub(super) fn dual_texture(d: &SceneData, t: &TextureGpu, uv: Vec2, duv: Vec2, c: u32) -> D {
-    let x = uv.x * t.width as f32 - 0.5;
-    let y = (1.0 - uv.y) * t.height as f32 - 0.5;
-    let (fx, fy) = (x - x.floor(), y - y.floor());
-    let at = |dx: f32, dy: f32| {
-        let uv = Vec2::new((x.floor() + dx + 0.5) / t.width as f32, 1.0 - (y.floor() + dy + 0.5) / t.height as f32);
-        texture_sample(&d.texels, t, uv, c)
-    };
-    let (a, b, e, f) = (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0));
-    let d_x = (1.0 - fy) * (b - a) + fy * (f - e);
-    let d_y = (1.0 - fx) * (e - a) + fx * (f - b);
-    D { v: texture_sample(&d.texels, t, uv, c), d: d_x * duv.x * t.width as f32 - d_y * duv.y * t.height as f32 }
 }
 
 fn dual_point(d: &SceneData, tg: &Tangent, ti: u32, tri: &DualTriangle, u: D, v: D, incoming: Vec3) -> DualPoint {

@@ -14,17 +14,17 @@
 //! unbiased. Memory is one vertex list per thread (bounded by max_depth) and one gradient row per image row,
 //! independent of spp; rows are reduced in order, so the result is identical on any thread count.
 
-use super::bsdf_grad::{bsdf_albedo_grad, bsdf_eval_grad, BsdfGrad};
-use super::normal_map_grad::{bsdf_normal_adjoint, normal_map_jacobian, normal_map_uv_tangents};
-use super::path_record::{record_path, PathRecord, RecordedVertex};
-use super::ParamPath;
-use super::{accumulate_blocks, check_adjoint};
 use crate::error::{Error, Result};
+use crate::grad::ad::bsdf_grad::{bsdf_albedo_grad, bsdf_eval_grad, BsdfGrad};
+use crate::grad::interior::normal_map::{bsdf_normal_adjoint, normal_map_jacobian, normal_map_uv_tangents};
+use crate::grad::path::record::{record_path, PathRecord, RecordedVertex};
+use crate::grad::{accumulate_blocks, check_adjoint};
 use crate::render::bsdf::BsdfParams;
 use crate::render::cpu::frame_params;
 use crate::render::layout::{TextureGpu, NONE};
 use crate::render::texture::texture_footprint;
 use crate::render::SceneData;
+use crate::scene::ParamPath;
 use crate::scene::{Color, Procedural, RenderSettings, Scalar, Scene};
 use glam::{Vec2, Vec3};
 use psdr_materials::{TextureTransform, TextureView, TransformGrad};
@@ -56,7 +56,7 @@ pub struct GradLayout {
     /// Per material: which derivatives of its BSDF values some parameter needs.
     material_wanted: Vec<Wanted>,
     /// Some parameter moves shading normals (normal-map texels, the uv transform of a normal-mapped material).
-    pub(super) shading_normal_wanted: bool,
+    pub(crate) shading_normal_wanted: bool,
     /// Per material: offsets of uv scale (2) and rotation (1) gradients, and the transform itself.
     uv_scale: Vec<Option<usize>>,
     uv_rotation: Vec<Option<usize>>,
@@ -66,7 +66,7 @@ pub struct GradLayout {
     albedo_maps: Vec<(u32, usize)>,
     chains: Vec<ProceduralChain>,
     /// Length of the gradient vector the passes accumulate: `len` plus the whole textures.
-    pub(super) extended_len: usize,
+    pub(crate) extended_len: usize,
 }
 
 /// A procedural material some of whose graph parameters or tint are requested.
@@ -151,17 +151,17 @@ impl GradLayout {
                         _ => l.uv_rotation[m] = Some(at),
                     }
                 }
-                ParamPath::MaterialTexel { material, slot: super::TextureSlot::Albedo, x, y } => {
+                ParamPath::MaterialTexel { material, slot: crate::scene::TextureSlot::Albedo, x, y } => {
                     let m = &scene.materials[scene.material_index(material).expect("checked")];
                     let Color::Texture(t) = m.albedo else { unreachable!("checked by get") };
                     l.texels.push((t as u32, y * scene.textures[t].width + x, at));
                 }
-                ParamPath::MaterialTexel { material, slot: super::TextureSlot::Roughness, x, y } => {
+                ParamPath::MaterialTexel { material, slot: crate::scene::TextureSlot::Roughness, x, y } => {
                     let m = &scene.materials[scene.material_index(material).expect("checked")];
                     let Scalar::Texture(t) = m.roughness else { unreachable!("checked by get") };
                     l.rough_texels.push((t as u32, y * scene.textures[t].width + x, at));
                 }
-                ParamPath::MaterialTexel { material, slot: super::TextureSlot::NormalMap, x, y } => {
+                ParamPath::MaterialTexel { material, slot: crate::scene::TextureSlot::NormalMap, x, y } => {
                     let m = &scene.materials[scene.material_index(material).expect("checked")];
                     let t = m.normal_map.expect("checked by get");
                     l.normal_texels.push((t as u32, y * scene.textures[t].width + x, at));
@@ -234,9 +234,23 @@ impl GradLayout {
         Ok(l)
     }
 
+    /// What the GPU adjoint (shaders/grad/interior/material_light.comp) needs when it covers every requested
+    /// parameter: per material the offset of its albedo gradient and per emitter that of its radiance gradient
+    /// (`u32::MAX` for none). `None` when some parameter is of a kind the GPU pass does not compute yet
+    /// (roughness, specular, texels, uv transforms, procedural graphs) or its derivatives need more than albedo.
+    pub fn device_slots(&self) -> Option<(Vec<u32>, Vec<u32>)> {
+        let only_albedo_and_emitters =
+            self.params.iter().all(|p| matches!(p, ParamPath::LightRadiance(_) | ParamPath::MaterialAlbedo(_)));
+        if !only_albedo_and_emitters || self.extended_len != self.len {
+            return None;
+        }
+        let slot = |o: &Option<usize>| o.map_or(u32::MAX, |o| o as u32);
+        Some((self.albedo.iter().map(slot).collect(), self.emitter.iter().map(slot).collect()))
+    }
+
     /// The requested gradients (`len` values) from the extended vector the passes accumulated: whole-texture
     /// gradients chained through their procedural graphs (texels = clamp(tint · albedo(params), 0, 1)).
-    pub(super) fn finish(&self, mut grad: Vec<f64>) -> Result<Vec<f64>> {
+    pub(crate) fn finish(&self, mut grad: Vec<f64>) -> Result<Vec<f64>> {
         for c in &self.chains {
             let (mut ev, base) = c.procedural.evaluate()?;
             let g_texels = &grad[c.texels_at..c.texels_at + base.len()];
@@ -286,7 +300,7 @@ pub fn radiance_vjp(
 }
 
 /// Distributes one path's adjoint `delta` (already divided by spp) onto the parameters.
-pub(super) fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVertex], delta: Vec3, grad: &mut [f64]) {
+pub(crate) fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVertex], delta: Vec3, grad: &mut [f64]) {
     let mut r_next = Vec3::ZERO; // R_{k+1}
     for v in verts.iter().rev() {
         let a = delta * v.throughput;
@@ -357,7 +371,7 @@ pub(super) fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVer
 
 /// Distributes one path's adjoint onto normal-map texels: at each vertex whose map has requested texels,
 /// dL/dn_s from its next-event and continuation terms (R_{k+1} as in `backward_sweep`), through the mapping.
-pub(super) fn normal_map_sweep(d: &SceneData, l: &GradLayout, rec: &PathRecord, delta: Vec3, grad: &mut [f64]) {
+pub(crate) fn normal_map_sweep(d: &SceneData, l: &GradLayout, rec: &PathRecord, delta: Vec3, grad: &mut [f64]) {
     let verts = &rec.vertices;
     // R_{k+1} for every k, from the back.
     let mut r_after = vec![Vec3::ZERO; verts.len()];

@@ -5,9 +5,9 @@
 //! mapping runs in duals (`map_normal_dual`, shared with the pose replay); a test checks the mapped normal
 //! against `surface_point`'s.
 
-use super::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
-use super::dual::{D, D3};
-use super::geometry_interior::dual_texture;
+use crate::grad::ad::bsdf_dual::{bsdf_eval_dual, BsdfParamsD};
+use crate::grad::ad::dual::{D, D3};
+use crate::grad::ad::dual_texture::dual_texture;
 use crate::render::layout::{MaterialGpu, TextureGpu, NONE, SHADING_HAS_UVS};
 use crate::render::shading::{
     apply_uv_transform, facing_normals, orthogonal, surface_point, SurfacePoint, TERMINATOR_COS,

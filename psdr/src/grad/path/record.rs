@@ -1,16 +1,16 @@
-//! One camera path traced exactly as `render::path_trace::trace_path` traces it (same sampler dimensions, same
-//! estimator), recorded vertex by vertex for the adjoint passes: what each vertex hit (triangle, barycentrics),
+//! One camera path traced by the renderer's own integrator (`render::path_trace::trace_from`, which reports each
+//! vertex to an observer), recorded vertex by vertex for the adjoint passes: what each vertex hit (triangle, barycentrics),
 //! its local estimator terms, and the detached densities of its next-event and continuation samples.
 //! Memory is one record per thread, bounded by max_depth, reused across samples.
 
-use crate::render::bsdf::{bsdf_at, bsdf_eval_pdf, bsdf_sample_at, BsdfParams};
-use crate::render::bvh::trace_closest;
+use crate::render::bsdf::BsdfParams;
+use crate::render::bvh::Hit;
 use crate::render::camera::camera_ray;
 use crate::render::layout::{FrameParams, NONE};
-use crate::render::light::{emitted_radiance, light_pdf_area, mis_power, sample_light, select_light};
-use crate::render::path_trace::unoccluded;
+use crate::render::light::select_light;
+use crate::render::path_trace::{trace_from, ContinueEvent, NeeEvent, PathObserver};
 use crate::render::sampler::*;
-use crate::render::shading::{offset_origin, surface_point};
+use crate::render::shading::SurfacePoint;
 use crate::render::SceneData;
 use glam::{Vec2, Vec3};
 
@@ -98,100 +98,109 @@ pub fn record_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u3
     record_from(d, fp, &s, Vec3::from(cam.origin), dir, rec);
 }
 
-/// Records the path that starts with the camera ray (origin, dir), drawing bounce numbers from `s`.
+/// Records the path that starts with the camera ray (origin, dir), drawing bounce numbers from `s`: the
+/// renderer's own integrator (`render::path_trace::trace_from`) reports each vertex to the recorder.
 pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, dir: Vec3, rec: &mut PathRecord) {
     rec.vertices.clear();
     rec.origin = origin;
     rec.dir = dir;
-    let (mut origin, mut dir) = (origin, dir);
-    let mut beta = Vec3::ONE;
-    let mut prev_bsdf_pdf = 0.0f32;
-    for depth in 0..fp.max_depth {
-        let Some(hit) = trace_closest(&d.nodes, &d.triangles, origin, dir, f32::INFINITY) else {
-            break;
-        };
-        let sp = surface_point(d, hit.triangle, hit.u, hit.v, dir);
-        let mut v = RecordedVertex {
+    trace_from(d, fp, s, origin, dir, &mut Recorder { d, fp, rec });
+}
+
+/// The observer that writes a `PathRecord`.
+struct Recorder<'a> {
+    d: &'a SceneData,
+    fp: &'a FrameParams,
+    rec: &'a mut PathRecord,
+}
+
+impl Recorder<'_> {
+    fn last(&mut self) -> &mut RecordedVertex {
+        self.rec.vertices.last_mut().expect("events follow a hit")
+    }
+}
+
+impl PathObserver for Recorder<'_> {
+    fn hit(&mut self, hit: &Hit, sp: &SurfacePoint, beta: Vec3) {
+        self.rec.vertices.push(RecordedVertex {
             triangle: hit.triangle,
             u: hit.u,
             v: hit.v,
             throughput: beta,
             emitter: NONE,
-            material: d.triangles[hit.triangle as usize].material,
+            material: self.d.triangles[hit.triangle as usize].material,
             uv: sp.uv,
             albedo: sp.bsdf.albedo,
             roughness: sp.bsdf.roughness,
             specular: sp.bsdf.specular,
             ..Default::default()
-        };
-        let le = emitted_radiance(d, hit.triangle, sp.front);
-        if le != Vec3::ZERO {
-            v.emission_mis = if depth == 0 {
-                1.0
-            } else {
-                let cos_l = sp.ng.dot(-dir).abs();
-                mis_power(prev_bsdf_pdf, light_pdf_area(d, hit.triangle) * hit.t * hit.t / cos_l)
-            };
-            v.emitter = d.shading[hit.triangle as usize].emitter;
-            v.emission = le;
-            v.local += le * v.emission_mis;
-        }
-        if depth + 1 >= fp.max_depth {
-            rec.vertices.push(v);
-            break;
-        }
-        let wi = sp.to_local(-dir);
-        v.wi_local = wi;
-        let bsdf = bsdf_at(&sp.bsdf, wi);
-        let (u_sel, u_lobe) = s.bounce2(depth, DIM_LIGHT_SELECT);
-        if fp.light_count > 0 {
-            let (u1, u2) = s.bounce2(depth, DIM_LIGHT_U);
-            let ls = sample_light(d, fp.light_count, u_sel, u1, u2);
-            let to_light = ls.p - sp.p;
-            let dist2 = to_light.dot(to_light);
-            let dist = dist2.sqrt();
-            let wl = to_light / dist;
-            let cos_l = if ls.two_sided { ls.n.dot(-wl).abs() } else { ls.n.dot(-wl) };
-            if cos_l > 0.0 && dist > 0.0 {
-                let wo = sp.to_local(wl);
-                let (f, pdf) = bsdf_eval_pdf(&bsdf, wo);
-                if f != Vec3::ZERO && unoccluded(d, sp.p, sp.ng, ls.p, ls.n) {
-                    let light_pdf = ls.pdf_area * dist2 / cos_l;
-                    let w = mis_power(light_pdf, pdf);
-                    let nee = RecordedNee {
-                        triangle: d.lights[select_light(&d.lights, fp.light_count, u_sel) as usize].triangle,
-                        dir: wl,
-                        emitter: ls.emitter,
-                        radiance: ls.radiance,
-                        w_over_pdf: w / light_pdf,
-                        f,
-                        wo_local: wo,
-                    };
-                    v.local += f * ls.radiance * nee.w_over_pdf;
-                    v.nee = Some(nee);
+        });
+    }
+
+    fn emission(&mut self, emitter: u32, le: Vec3, mis: f32) {
+        let v = self.last();
+        (v.emitter, v.emission, v.emission_mis) = (emitter, le, mis);
+        v.local += le * mis;
+    }
+
+    fn scatter(&mut self, wi_local: Vec3) {
+        self.last().wi_local = wi_local;
+    }
+
+    fn nee(&mut self, e: &NeeEvent) {
+        let triangle = self.d.lights[select_light(&self.d.lights, self.fp.light_count, e.u_select) as usize].triangle;
+        let v = self.last();
+        v.local += e.f * e.radiance * e.w_over_pdf;
+        v.nee = Some(RecordedNee {
+            triangle,
+            dir: e.dir,
+            emitter: e.emitter,
+            radiance: e.radiance,
+            w_over_pdf: e.w_over_pdf,
+            f: e.f,
+            wo_local: e.wo_local,
+        });
+    }
+
+    fn continuation(&mut self, e: &ContinueEvent) {
+        let beta = e.weight / e.q; // q is 1 before roulette: exact
+        self.last().next = Some(RecordedContinuation { dir: e.dir, pdf: e.pdf, q: e.q, beta, wo_local: e.wo_local });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::path_trace::trace_path;
+
+    /// The recorder and the renderer trace the same paths: the recorded estimate is the rendered one (up to the
+    /// order of its sums) and the vertex count is the hits', on a room with textures, glossy surfaces and a light.
+    #[test]
+    fn recorded_paths_are_the_rendered_paths() {
+        let scene = crate::scene::load_scene(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../examples/room/scene.json"
+        )))
+        .unwrap();
+        let d = SceneData::build(&scene).unwrap();
+        let mut settings = scene.settings.clone();
+        (settings.spp, settings.max_depth) = (4, 6);
+        let fp = crate::render::cpu::frame_params(&d, &settings);
+        let mut rec = PathRecord::default();
+        let (mut paths, mut nonzero) = (0, 0);
+        for py in (0..d.camera.height).step_by(7) {
+            for px in (0..d.camera.width).step_by(5) {
+                for sample in 0..fp.spp {
+                    let primal = trace_path(&d, &fp, px, py, sample);
+                    record_path(&d, &fp, px, py, sample, &mut rec);
+                    let r = rec.radiance();
+                    let tol = 1e-5 * primal.radiance.max_element().max(1e-3);
+                    assert!((r - primal.radiance).abs().max_element() <= tol, "{r} vs {}", primal.radiance);
+                    paths += 1;
+                    nonzero += usize::from(r != Vec3::ZERO);
                 }
             }
         }
-        let (b1, b2) = s.bounce2(depth, DIM_BSDF_U);
-        let Some(bs) = bsdf_sample_at(&bsdf, u_lobe, b1, b2) else {
-            rec.vertices.push(v);
-            break;
-        };
-        prev_bsdf_pdf = bs.pdf;
-        dir = sp.to_world(bs.wo).normalize();
-        let mut next = RecordedContinuation { dir, pdf: bs.pdf, q: 1.0, beta: bs.weight, wo_local: bs.wo };
-        origin = offset_origin(sp.p, sp.ng, dir);
-        if depth + 1 >= fp.rr_depth {
-            let q = (beta * bs.weight).max_element().min(0.95);
-            if s.bounce(depth, DIM_ROULETTE) >= q || q.is_nan() {
-                rec.vertices.push(v);
-                break;
-            }
-            next.q = q;
-            next.beta /= q;
-        }
-        beta *= next.beta;
-        v.next = Some(next);
-        rec.vertices.push(v);
+        assert!(nonzero * 2 > paths, "{nonzero} of {paths} paths carry light");
     }
 }

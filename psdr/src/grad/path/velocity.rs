@@ -3,9 +3,9 @@
 //! components move whole objects (affine fields of the point); a welded vertex's component moves the points of
 //! the triangles around it with their barycentric weight of that vertex, so a velocity is asked for at a `Site`.
 
-use super::ParamPath;
 use crate::error::{Error, Result};
 use crate::render::SceneData;
+use crate::scene::ParamPath;
 use crate::scene::{weld, Scene};
 use glam::{Mat3, Quat, Vec3};
 

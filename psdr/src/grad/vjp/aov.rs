@@ -6,11 +6,11 @@
 //! ε pixels apart, and V = ∂y/∂θ is the image velocity of the edge point. f⁻ is the side the normal n points
 //! away from: when the edge moves along +n, the f⁻ region grows.
 
-use super::pose_velocity::PoseLayout;
-use super::primary_edges::{primary_boundary_weighted, PrimaryEdges, SIDE_EPS};
-use super::Output;
-use super::{accumulate_blocks, check_adjoint};
 use crate::error::{Error, Result};
+use crate::grad::boundary::primary::{primary_boundary_weighted, PrimaryEdges, SIDE_EPS};
+use crate::grad::path::velocity::PoseLayout;
+use crate::grad::Output;
+use crate::grad::{accumulate_blocks, check_adjoint};
 use crate::render::bvh::trace_closest;
 use crate::render::camera::camera_ray;
 use crate::render::layout::NONE;

@@ -1,11 +1,12 @@
 //! One backward pass for a whole loss: a loss may read radiance, depth and the masks of several objects at once;
 //! their adjoint images go into one call that returns the gradient of every selected parameter.
 
-use super::aov_vjp::{aovs_vjp, AovAdjoints};
-use super::pose_velocity::PoseLayout;
-use super::radiance_pose_vjp::{radiance_pose_vjp, BoundarySamples};
-use super::{radiance_vjp, GradLayout, ParamPath};
+use crate::backend::Backend;
 use crate::error::{Error, Result};
+use crate::grad::path::velocity::PoseLayout;
+use crate::grad::vjp::aov::{aovs_vjp, AovAdjoints};
+use crate::grad::vjp::radiance_pose::{radiance_pose_vjp, BoundarySamples};
+use crate::grad::{GradLayout, ParamPath};
 use crate::render::SceneData;
 use crate::scene::{RenderSettings, Scene};
 
@@ -40,7 +41,7 @@ pub fn moves_geometry(p: &ParamPath) -> bool {
 /// dLoss/dθ of `params` (in their order, each parameter's floats in a row) given the adjoints of every output
 /// the loss read. `settings.seed` should differ from the seed of the primal render the adjoints came from (an
 /// L2 loss's adjoint times the derivative is biased when both use the same paths).
-/// Radiance: interior term of materials and lights, interior + primary + secondary boundary of poses and
+/// Radiance: interior term of materials and lights (on `backend`'s device where its kernels cover them), interior + primary + secondary boundary of poses and
 /// vertices. Depth and masks: poses and vertices (interior + silhouettes); their derivatives w.r.t. materials
 /// and lights are zero.
 pub fn outputs_vjp(
@@ -50,6 +51,7 @@ pub fn outputs_vjp(
     params: &[ParamPath],
     adjoints: &OutputAdjoints,
     boundary: BoundarySamples,
+    backend: &mut dyn Backend,
 ) -> Result<Vec<f64>> {
     let (pose_params, other): (Vec<ParamPath>, Vec<ParamPath>) = params.iter().cloned().partition(moves_geometry);
     let material = GradLayout::new(scene, &other)?;
@@ -58,7 +60,7 @@ pub fn outputs_vjp(
     let mut g_pose = vec![0.0; pose.len];
     if let Some(radiance) = &adjoints.radiance {
         if material.len > 0 {
-            g_material = radiance_vjp(data, settings, &material, radiance)?;
+            g_material = backend.radiance_vjp(data, settings, &material, radiance)?;
         }
         if pose.len > 0 {
             g_pose = radiance_pose_vjp(scene, data, settings, &pose, radiance, boundary)?;

@@ -1,15 +1,15 @@
-//! Reverse mode of the radiance image with respect to object poses: the material-form interior term
-//! (`geometry_interior`) plus boundary terms. The primary boundary samples silhouette edges seen by the camera
+//! Reverse mode of the radiance image with respect to object poses and vertices: the ray-form interior term
+//! (interior/geometry.rs) plus the primary, secondary and horizon boundary terms. The primary boundary samples silhouette edges seen by the camera
 //! by projected length and takes the radiance difference across them from two paths that share their random
 //! numbers (so the difference, not each side, carries the noise).
 
-use super::geometry_interior::{entries_touching, replay_radiance, Tangent};
-use super::path_record::{record_from, record_path, PathRecord};
-use super::pose_velocity::PoseLayout;
-use super::primary_edges::{primary_boundary, PixelAdjoint, PrimaryEdges};
-use super::secondary_edges::{secondary_boundary, SecondaryEdges, SecondaryPath};
-use super::{accumulate_blocks, check_adjoint};
 use crate::error::Result;
+use crate::grad::boundary::primary::{primary_boundary, PixelAdjoint, PrimaryEdges};
+use crate::grad::boundary::secondary::{secondary_boundary, SecondaryEdges, SecondaryPath};
+use crate::grad::interior::geometry::{entries_touching, replay_radiance, Tangent};
+use crate::grad::path::record::{record_from, record_path, PathRecord};
+use crate::grad::path::velocity::PoseLayout;
+use crate::grad::{accumulate_blocks, check_adjoint};
 use crate::render::camera::camera_ray;
 use crate::render::cpu::frame_params;
 use crate::render::sampler::Sampler;
