@@ -166,4 +166,3 @@ fn analytic_gradients_agree_on_either_backend() {
     eprintln!("analytic_gradient, {} components: worst relative difference {worst:.2e}", cpu.mean.len());
     assert!(worst <= 1e-4, "cpu {:?}\ngpu {:?}", cpu.mean, gpu.mean);
 }
-

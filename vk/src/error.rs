@@ -49,6 +49,11 @@ pub enum VkError {
     #[error("kernel {name:?}: invalid SPIR-V: {reason}")]
     InvalidSpirv { name: String, reason: String },
 
+    /// A GLSL kernel compiled at run time (`compile_glsl_file`) failed; `message` has the compiler's
+    /// `file:line: error: ...` lines.
+    #[error("shader {file}: {message}")]
+    ShaderCompile { file: String, message: String },
+
     /// Dispatch arguments that do not fit the kernel or the device.
     #[error("kernel {name:?}: {reason}")]
     BadDispatch { name: String, reason: String },

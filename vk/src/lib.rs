@@ -9,7 +9,8 @@
 //!
 //! Kernels are GLSL compiled by the using crate's build.rs with
 //! `glslangValidator -V --target-env vulkan1.2 -o $OUT_DIR/<name>.spv <name>.comp` (see this crate's build.rs)
-//! and loaded with [`include_spirv!`]. Binding `i` of set 0 is `buffers[i]`; push constants are one
+//! and loaded with [`include_spirv!`], or compiled at run time from a folder of GLSL with [`compile_glsl_file`]
+//! (shaderc). Binding `i` of set 0 is `buffers[i]`; push constants are one
 //! `#[repr(C)]` Pod struct (at most `maxPushConstantsSize`, 128 bytes on lavapipe). Every submission is
 //! waited for, so downloads right after a dispatch see its results.
 //!
@@ -51,6 +52,7 @@ mod error;
 mod groups;
 mod instance;
 mod kernel;
+mod runtime_shaders;
 mod spirv;
 mod timing;
 mod validation;
@@ -64,6 +66,7 @@ pub use device::{list_devices, DeviceInfo, DeviceKind, DEVICE_ENV};
 pub use error::{Result, VkError, INSTALL_HINT};
 pub use groups::{Groups, GUARANTEED_MAX_GROUPS};
 pub use kernel::Kernel;
+pub use runtime_shaders::{compile_glsl_file, decorate_no_contraction};
 pub use spirv::{spirv_from_bytes, SPIRV_MAGIC};
 pub use timing::{CommandTiming, Timings};
 pub use validation::{Severity, ValidationMessage, ValidationMode};

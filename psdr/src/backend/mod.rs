@@ -7,7 +7,7 @@ mod vk_backend;
 
 pub use cpu_backend::CpuBackend;
 pub use vk_adjoint::{AdjointParams, MAX_RECORD_DEPTH};
-pub use vk_backend::{layout_check_spirv, VkBackend};
+pub use vk_backend::{layout_check_spirv, VkBackend, SHADER_DIR_ENV};
 
 use crate::error::{Error, Result};
 use crate::grad::GradLayout;

@@ -10,6 +10,7 @@ use crate::render::layout::{CameraGpu, FrameParams};
 use crate::render::{Frame, SceneData};
 use crate::scene::RenderSettings;
 use psdr_vk::{Buffer, Context, ContextOptions, Groups, Kernel, StorageBinding};
+use std::path::{Path, PathBuf};
 
 /// Path samples per pass: keeps each submission well under a second on lavapipe and far below GPU watchdogs.
 const PASS_PATH_SAMPLES: u64 = 1 << 20;
@@ -22,18 +23,42 @@ pub struct VkBackend {
     pub(super) pass_path_samples: u64,
 }
 
+/// The folder of GLSL kernels to compile at run time instead of the build's (`shaders/` layout).
+pub const SHADER_DIR_ENV: &str = "PSDR_SHADER_DIR";
+
+/// SPIR-V of kernel `rel` (`render/path_trace`): from `shader_dir`/`rel`.comp compiled now when a folder is given,
+/// else the build's.
+fn kernel_words(shader_dir: Option<&Path>, rel: &str, built: psdr_vk::Result<Vec<u32>>) -> Result<Vec<u32>> {
+    match shader_dir {
+        Some(dir) => psdr_vk::compile_glsl_file(dir, &format!("{rel}.comp")).map_err(backend_error),
+        None => built.map_err(backend_error),
+    }
+}
+
 pub(super) fn backend_error(e: psdr_vk::VkError) -> Error {
     Error::Backend(e.to_string())
 }
 
 impl VkBackend {
-    /// Opens the device named by `device` (a case-insensitive substring), or `PSDR_VK_DEVICE`, or the best one.
+    /// Opens the device named by `device` (a case-insensitive substring), or `PSDR_VK_DEVICE`, or the best one,
+    /// with the kernels compiled at build time, or at run time from `PSDR_SHADER_DIR` when it is set.
     pub fn new(device: Option<&str>) -> Result<VkBackend> {
+        let shader_dir = std::env::var_os(SHADER_DIR_ENV).filter(|v| !v.is_empty()).map(PathBuf::from);
+        VkBackend::with_shader_dir(device, shader_dir.as_deref())
+    }
+
+    /// Like `new`, with the kernels compiled at run time from `shader_dir` (a copy of the repository's
+    /// shaders/ folder, edited) when it is given: a researcher changes a kernel and reruns without rebuilding.
+    pub fn with_shader_dir(device: Option<&str>, shader_dir: Option<&Path>) -> Result<VkBackend> {
         let options = ContextOptions { device: device.map(str::to_string), ..Default::default() };
         let ctx = Context::with_options(&options).map_err(backend_error)?;
-        let words = psdr_vk::include_spirv!("render/path_trace").map_err(backend_error)?;
+        let words = kernel_words(shader_dir, "render/path_trace", psdr_vk::include_spirv!("render/path_trace"))?;
         let path_trace = Kernel::new(&ctx, "path_trace", &words, 16).map_err(backend_error)?;
-        let words = psdr_vk::include_spirv!("grad/interior/material_light").map_err(backend_error)?;
+        let words = kernel_words(
+            shader_dir,
+            "grad/interior/material_light",
+            psdr_vk::include_spirv!("grad/interior/material_light"),
+        )?;
         let material_light_vjp = Kernel::new(&ctx, "material_light_vjp", &words, 12).map_err(backend_error)?;
         Ok(VkBackend { ctx, path_trace, material_light_vjp, pass_path_samples: PASS_PATH_SAMPLES })
     }
