@@ -4,13 +4,18 @@
 //! material in the top 3 in at least 70 % of the cases (measured: 8 of 8, all first); where it is found, its
 //! rotation recovered where the texture shows it (the found transform's view differs from the true one's by
 //! a texture distance above `SAME_LOOK`; a glaze or a polished concrete looks the same at any rotation, tiles
-//! the same turned by 90 degrees) in at least 80 %, and its scale within a factor 1.25 in at least 80 %
-//! (measured 7 of 8: a knit's loops are matched at 0.65 of their scale; the target is every case).
+//! the same turned by 90 degrees) and its scale within a factor 1.25 in every case where the crop shows texture
+//! (measured 7 of 7; the eighth, a knit at 3 repeats across 64 pixels, averages to a flat colour, contrast
+//! 0.3 %, and was matched at 0.65 of its scale: no transform shows there to be recovered).
 //! Before the views were mip-filtered they aliased (several texels per pixel), a 2 % change of scale changed
 //! them completely, and the scale was within 1.25 in 5 of 7.
 
 use psdr::loss::{texture_loss, Tensor};
-use psdr::stages::{library_textures, search_materials, transformed_view};
+use psdr::stages::{contrast, library_textures, search_materials, transformed_view};
+
+/// Crops with less luminance contrast than this show no texture (the pipeline keeps far flatter-looking
+/// surfaces homogeneous: its threshold is 8 % local contrast).
+const MIN_VISIBLE_CONTRAST: f32 = 0.01;
 
 /// Two views this close (texture distance) look the same: a rotation between them is not visible.
 const SAME_LOOK: f32 = 0.05;
@@ -33,6 +38,9 @@ fn library_materials_are_found_with_their_transforms() {
     for &(i, scale, rotation) in &cases {
         let light = 0.7f32;
         let mut crop = transformed_view(&library[i], scale, rotation, 64);
+        // A crop whose texture averages out over its pixels shows no transform to recover.
+        let view_contrast = contrast(&crop);
+        let shows_texture = view_contrast >= MIN_VISIBLE_CONTRAST;
         // Seen under a known light with noise; the caller divides the light back out.
         for v in crop.data.iter_mut() {
             let g = 1.0 + 0.02 * (2.0 * rng.next_f32() - 1.0);
@@ -48,6 +56,10 @@ fn library_materials_are_found_with_their_transforms() {
         );
         if let Some(m) = top.iter().find(|m| m.name == library[i].name) {
             in_top3 += 1;
+            if !shows_texture {
+                eprintln!("  found; the view's contrast is {view_contrast:.4}: no texture shows, transform not judged");
+                continue;
+            }
             found += 1;
             let ratio = m.scale / scale;
             scale_ok += usize::from((0.8..=1.25).contains(&ratio));
@@ -67,6 +79,7 @@ fn library_materials_are_found_with_their_transforms() {
         cases.len()
     );
     assert!(in_top3 * 10 >= cases.len() * 7, "true material in the top 3 in {in_top3} of {}", cases.len());
-    assert!(rotation_ok * 10 >= found * 8, "rotation recovered in {rotation_ok} of {found}");
-    assert!(scale_ok * 10 >= found * 8, "scale within 1.25 in {scale_ok} of {found}");
+    assert_eq!(rotation_ok, found, "rotation recovered in {rotation_ok} of {found}");
+    assert_eq!(scale_ok, found, "scale within 1.25 in {scale_ok} of {found}");
+    assert!(found >= 6, "only {found} crops show texture");
 }
