@@ -5,7 +5,8 @@
 //! `segments` maps a homogeneous material's name to the mask of the photo's pixels that show it. Both change
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
 //! `texture_surfaces(s, photo, segments, #{spp, top_k, colour_weight, min_contrast, min_crop, max_crop,
-//! samples, library_size, graph_iters, graph_lr})` gives the segments that show a texture a procedural material
+//! samples, library_size, graph_iters, graph_lr, embedding, embedding_weight})` gives the segments that show a
+//! texture (ranked with an ONNX image encoder's similarity too when `embedding` names one) a procedural material
 //! from the library, its graph fitted to the crop (`stages::surface_textures`, `stages::graph_fit`), recorded
 //! as `surface_textures` (crops, top matches, decisions, the graph fits).
 
@@ -96,6 +97,11 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
     let mut o = SurfaceTextureOptions::default();
     let mut library_size = 128usize;
     for (k, v) in opts {
+        if k == "embedding" {
+            let path = v.clone().into_string().map_err(|_| Error::Invalid(format!("{what}: 'embedding' is a path")))?;
+            o.embedding = (!path.is_empty()).then(|| std::path::PathBuf::from(path));
+            continue;
+        }
         let n = option_number(what, k, v)?;
         match k.as_str() {
             "spp" => o.spp = n.max(1.0) as u32,
@@ -109,10 +115,11 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
             "library_size" => library_size = n.clamp(16.0, 1024.0) as usize,
             "graph_iters" => o.graph_fit.iters = n.max(0.0) as usize,
             "graph_lr" => o.graph_fit.lr = n.max(0.0),
+            "embedding_weight" => o.embedding_weight = n.max(0.0) as f32,
             other => {
                 return Err(Error::Invalid(format!(
                     "{what}: unknown option '{other}' (spp, top_k, colour_weight, min_contrast, min_crop, max_crop, \
-                     samples, contrast_tolerance, library_size, graph_iters, graph_lr)"
+                     samples, contrast_tolerance, library_size, graph_iters, graph_lr, embedding, embedding_weight)"
                 )))
             }
         }

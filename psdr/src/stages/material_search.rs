@@ -10,6 +10,7 @@
 use super::texture_view::{texture_view, UvGrid};
 use crate::error::{Error, Result};
 use crate::loss::{texture_loss, Image, Tensor};
+use crate::vision::{cosine, embed, OnnxModel};
 use psdr_materials::{library, Evaluator};
 
 /// A library material's albedo texture at default parameters.
@@ -57,6 +58,16 @@ pub struct MaterialMatch {
     pub distance: f32,
     /// The descriptor loss alone.
     pub texture_distance: f32,
+    /// Cosine similarity of the crop's and the material's view's embeddings, when an image encoder ranked them
+    /// too (the distance then includes weight x (1 - similarity)).
+    pub embedding_similarity: Option<f32>,
+}
+
+/// An ONNX image encoder and its weight in the ranking: the paper's CLIP search of the material library, with
+/// whatever encoder a user has (a CLIP image tower, a style/texture encoder).
+pub struct MaterialEncoder<'a> {
+    pub model: &'a mut OnnxModel,
+    pub weight: f32,
 }
 
 fn mean(img: &Image) -> [f32; 3] {
@@ -145,6 +156,19 @@ pub fn search_materials_on(
     top_k: usize,
     colour_weight: f32,
 ) -> Result<Vec<MaterialMatch>> {
+    search_materials_with(crop, grid, library, top_k, colour_weight, None)
+}
+
+/// `search_materials_on`, with an image encoder's similarity between the crop and each material's view (at
+/// the first pass's scale) in the ranking when one is given.
+pub fn search_materials_with(
+    crop: &Image,
+    grid: &UvGrid,
+    library: &[LibraryTexture],
+    top_k: usize,
+    colour_weight: f32,
+    encoder: Option<&mut MaterialEncoder>,
+) -> Result<Vec<MaterialMatch>> {
     if (grid.width, grid.height) != (crop.width, crop.height) || crop.channels != 3 {
         return Err(Error::Invalid(format!(
             "material search: the crop is {}x{}x{}, its uv grid {}x{}",
@@ -166,6 +190,7 @@ pub fn search_materials_on(
             rotation_deg: 0.0,
             distance: f32::INFINITY,
             texture_distance: f32::INFINITY,
+            embedding_similarity: None,
         };
         for k in 0..9 {
             let scale = 0.5 * 2f32.powf(k as f32 / 2.0);
@@ -175,6 +200,17 @@ pub fn search_materials_on(
             }
         }
         first.push(best);
+    }
+    let appearance = |m: &MaterialMatch, w: f32| m.embedding_similarity.map_or(0.0, |s| w * (1.0 - s));
+    let weight = encoder.as_ref().map_or(0.0, |e| e.weight);
+    if let Some(enc) = encoder {
+        let of_crop = embed(enc.model, crop)?;
+        for m in first.iter_mut() {
+            let tex = library.iter().find(|t| t.name == m.name).expect("from the library");
+            let of_view = embed(enc.model, &view_at(tex, m.scale * unit, 0.0, grid))?;
+            m.embedding_similarity = Some(cosine(&of_crop, &of_view));
+            m.distance += appearance(m, enc.weight);
+        }
     }
     first.sort_by(|a, b| a.distance.total_cmp(&b.distance));
     // The leaders' transform search.
@@ -188,6 +224,7 @@ pub fn search_materials_on(
             let scale = 0.5 * 2f32.powf(k as f32 / 4.0);
             for rotation in [-45.0f32, 0.0, 45.0, 90.0] {
                 let (d, t) = score(tex, scale, rotation)?;
+                let d = d + appearance(m, weight);
                 if d < best.distance {
                     (best.scale, best.rotation_deg, best.distance, best.texture_distance) = (scale, rotation, d, t);
                 }
@@ -199,6 +236,7 @@ pub fn search_materials_on(
             for k in [-2, -1, 1, 2] {
                 let scale = centre * 2f32.powf(k as f32 / step);
                 let (d, t) = score(tex, scale, best.rotation_deg)?;
+                let d = d + appearance(m, weight);
                 if d < best.distance {
                     (best.scale, best.distance, best.texture_distance) = (scale, d, t);
                 }

@@ -39,8 +39,8 @@ pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use light_init::{init_lights, LightInitOptions};
 pub use light_placement::{refine_light_placement, LightPlacement, LightPlacementOptions};
 pub use material_search::{
-    contrast, library_textures, search_materials, search_materials_on, transformed_view, view_at, LibraryTexture,
-    MaterialMatch,
+    contrast, library_textures, search_materials, search_materials_on, search_materials_with, transformed_view,
+    view_at, LibraryTexture, MaterialEncoder, MaterialMatch,
 };
 pub use material_segments::material_segments;
 pub use object_init::{

@@ -24,7 +24,7 @@
 
 use super::albedo_division::Segment;
 use super::graph_fit::{fit_graph_to_crop, GraphFit, GraphFitOptions};
-use super::material_search::{search_materials_on, view_at, LibraryTexture, MaterialMatch};
+use super::material_search::{search_materials_with, view_at, LibraryTexture, MaterialEncoder, MaterialMatch};
 use super::texture_view::UvGrid;
 use crate::error::{Error, Result};
 use crate::loss::{Image, Tensor};
@@ -56,6 +56,10 @@ pub struct SurfaceTextureOptions {
     /// The chosen material's graph parameters and tint fitted to the crop (`graph_fit`; 0 iterations: the
     /// library's parameters, tinted).
     pub graph_fit: GraphFitOptions,
+    /// An ONNX image encoder whose similarity between crop and material joins the ranking (the paper's CLIP
+    /// search), with this weight on (1 - cosine).
+    pub embedding: Option<std::path::PathBuf>,
+    pub embedding_weight: f32,
 }
 
 impl Default for SurfaceTextureOptions {
@@ -70,6 +74,8 @@ impl Default for SurfaceTextureOptions {
             samples: 3,
             contrast_tolerance: 0.5,
             graph_fit: GraphFitOptions::default(),
+            embedding: None,
+            embedding_weight: 1.0,
         }
     }
 }
@@ -109,6 +115,8 @@ pub fn texture_surfaces(
     let mut settings = scene.settings.clone();
     settings.spp = opts.spp.max(1);
     let render = render_cpu(&data, &settings, &|_, _| {}).radiance;
+    let mut model = opts.embedding.as_deref().map(crate::vision::load_embedding_model).transpose()?;
+    let mut encoder = model.as_mut().map(|model| MaterialEncoder { model, weight: opts.embedding_weight });
     let mut out = vec![];
     for seg in segments {
         let material = scene
@@ -165,7 +173,8 @@ pub fn texture_surfaces(
             out.push(entry);
             continue;
         }
-        entry.matches = search_materials_on(&crop, &grid, library, opts.top_k.max(1), opts.colour_weight)?;
+        entry.matches =
+            search_materials_with(&crop, &grid, library, opts.top_k.max(1), opts.colour_weight, encoder.as_mut())?;
         let best = entry.matches.first().cloned().expect("the library is not empty");
         let tex = library.iter().find(|t| t.name == best.name).expect("matches come from the library");
         let c = local_contrast(&view_at(tex, best.scale, best.rotation_deg, &grid));
