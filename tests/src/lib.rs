@@ -12,6 +12,7 @@ use std::path::PathBuf;
 pub mod furniture;
 pub mod known_geometry;
 pub mod rooms;
+pub mod sweet_home;
 
 /// An empty scene seen by a look-at camera.
 pub fn empty_scene(camera: Camera, settings: RenderSettings) -> Scene {

@@ -118,6 +118,9 @@ pub struct ShapeFile {
     pub segments: Option<u32>,
     /// box, sphere: normals point inside (rooms, enclosures).
     pub inward: Option<bool>,
+    /// Flat-shaded parts get smooth shading normals across edges whose dihedral angle is below this many
+    /// degrees (`scene::auto_smooth`): for meshes that approximate smooth surfaces.
+    pub smooth_angle: Option<f32>,
     /// Material for every part without an entry in `part_materials`.
     pub material: Option<String>,
     /// OBJ material-group name -> scene material name.

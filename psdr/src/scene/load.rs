@@ -299,6 +299,14 @@ impl Loader<'_> {
                 return Err(self.err(format!("{field}.material"), format!("part '{}' has no material", part.name)));
             };
         }
+        if let Some(angle) = s.smooth_angle {
+            if !(0.0..=180.0).contains(&angle) {
+                return Err(self.err(format!("{field}.smooth_angle"), format!("{angle} is not in 0..180 degrees")));
+            }
+            for part in parts.iter_mut().filter(|p| p.normals.is_none()) {
+                *part = super::auto_smooth(part, angle);
+            }
+        }
         let pose = self.pose(s.transform.as_ref(), &format!("{field}.transform"))?;
         let emitter = match &s.emitter {
             None => None,

@@ -1,6 +1,7 @@
 //! The in-memory scene: camera, objects (mesh parts + pose), materials, textures, emitters, render settings.
 //! Every stage reads and writes one `Scene`; `file` is its JSON form, `load` turns one into the other.
 
+mod auto_smooth;
 mod camera;
 pub mod file;
 mod load;
@@ -16,6 +17,7 @@ mod texture;
 pub mod validate;
 mod weld;
 
+pub use auto_smooth::auto_smooth;
 pub use camera::Camera;
 pub use load::load_scene;
 pub use material::{Color, Material, Scalar, UvTransform};

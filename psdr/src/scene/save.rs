@@ -69,6 +69,7 @@ pub fn save_scene(scene: &Scene, path: &Path) -> Result<()> {
             rings: None,
             segments: None,
             inward: None,
+            smooth_angle: None,
             material: None,
             part_materials,
             transform: Some(TransformFile {

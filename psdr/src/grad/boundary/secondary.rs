@@ -6,8 +6,12 @@
 //! relative to x, the integral changes by
 //!     ∫_edge [h(ω⁻) − h(ω⁺)] (dω_e/dθ · n̂) dℓ,     h = f · cos · L_in,
 //! where ω_e is the edge point's direction, n̂ the unit normal of the edge's arc on the sphere of directions and
-//! dℓ its arc length. We pick one silhouette edge with probability proportional to its approximate arc length,
-//! a point uniformly along it, and estimate L_in on both sides with two paths sharing their random numbers.
+//! dℓ its arc length. We draw one edge by descending the edge tree (`EdgeTree::sample`: children by total edge
+//! length over distance, then the leaf's edges by their approximate arc length, both weighted by the edge's
+//! strength: 1 for silhouettes, the normals' difference for creases, at least 0.02; zero for edges that cannot be
+//! a silhouette or crease from x; a draw costs the tree's depth, not the edge count, which matters for furniture
+//! whose flat faces make every edge a crease), a point uniformly along it, and estimate L_in on both sides with
+//! two paths sharing their random numbers.
 //! Every vertex that scatters gets these samples, so shadows (direct) and occluders seen after bounces
 //! (indirect) are both covered, to the path's full depth. Vertices on turning surfaces with shading normals
 //! also get samples of their moving horizon (`horizon_boundary`).
@@ -85,7 +89,6 @@ pub fn secondary_boundary(
         return;
     }
     let mut sub = PathRecord::default();
-    let (mut weights, mut chosen, mut stack) = (vec![], vec![], vec![]);
     let mut moving = Vec::with_capacity(path.active.len() + 8);
     let mut turning = Vec::with_capacity(path.active.len());
     let mut prev_p = rec.origin;
@@ -124,43 +127,55 @@ pub fn secondary_boundary(
                 horizon_boundary(d, &sub_fp, &hv, sampler, count, &mut sub, grad);
             }
         }
-        // Candidate edges and their approximate arc lengths on the sphere around p (upper hemisphere only).
-        weights.clear();
-        chosen.clear();
-        let mut total = 0.0f32;
-        // A vertex moves when its triangle or any earlier vertex does (ray form).
+        // A vertex moves when its triangle or any earlier vertex does (ray form); then every edge moves
+        // relative to it, else only the moving ones.
         let x_moves = path.velocities[..path.active.len()].iter().any(|v| v[k] != Vec3::ZERO);
-        let mut weigh = |i: usize| {
+        // The exact weight of an edge: its approximate arc length on the sphere around p times its strength,
+        // zero unless it can be a silhouette or a crease seen from p above its tangent plane.
+        let weight = |i: usize| {
             let e = &edges.edges[i];
             let above = sp.ng.dot(e.a - sp.p) > 0.0 || sp.ng.dot(e.b - sp.p) > 0.0;
             let creased = e.is_crease() && e.faces.iter().all(|f| f.normal.dot(sp.p - e.a) > 0.0);
-            if above && (e.is_silhouette_from(sp.p) || creased) {
-                let mid = 0.5 * (e.a + e.b) - sp.p;
-                let r = mid.length();
-                let om = mid / r;
-                let ab = e.b - e.a;
-                let w = (ab - om * om.dot(ab)).length() / r;
-                if w > 0.0 {
-                    total += w;
-                    weights.push(total);
-                    chosen.push(i);
-                }
+            if !(above && (e.is_silhouette_from(sp.p) || creased)) {
+                return 0.0;
+            }
+            let mid = 0.5 * (e.a + e.b) - sp.p;
+            let r = mid.length();
+            let om = mid / r;
+            let ab = e.b - e.a;
+            // A silhouette hides what is behind it; a crease only changes the shading, in proportion to how
+            // much its faces' normals differ.
+            let strength = if e.is_silhouette_from(sp.p) { 1.0 } else { e.strength() };
+            let w = (ab - om * om.dot(ab)).length() / r * strength;
+            if w.is_finite() {
+                w
+            } else {
+                0.0
             }
         };
-        edges.moving_tree.visit(sp.p, sp.ng, &mut stack, &mut weigh);
-        if x_moves {
-            edges.static_tree.visit(sp.p, sp.ng, &mut stack, &mut weigh);
-        }
-        if total.is_nan() || total <= 0.0 {
+        // The trees to draw from, by their importance from p.
+        let wm = edges.moving_tree.root_importance(sp.p, sp.ng);
+        let ws = if x_moves { edges.static_tree.root_importance(sp.p, sp.ng) } else { 0.0 };
+        // (NaN importances, from degenerate edges, count as nothing to draw.)
+        if (wm + ws).is_nan() || wm + ws <= 0.0 {
             continue;
         }
+        let p_moving = wm / (wm + ws);
         for j in 0..count {
             let es =
                 Sampler { seed: s.seed ^ SECONDARY_SEED, pixel: s.pixel, sample: s.sample * 4096 + k as u32 * 64 + j };
-            let target = es.get(0) * total;
-            let ei = weights.partition_point(|&c| c <= target).min(weights.len() - 1);
-            let e = &edges.edges[chosen[ei]];
-            let p_edge = (weights[ei] - if ei == 0 { 0.0 } else { weights[ei - 1] }) / total;
+            let u = es.get(0) as f64;
+            let drawn = if u < p_moving as f64 {
+                edges.moving_tree.sample(sp.p, sp.ng, u / p_moving as f64, weight).map(|(e, p)| (e, p * p_moving))
+            } else {
+                let u = ((u - p_moving as f64) / (1.0 - p_moving as f64)).min(1.0 - f64::EPSILON);
+                edges.static_tree.sample(sp.p, sp.ng, u, weight).map(|(e, p)| (e, p * (1.0 - p_moving)))
+            };
+            let Some((edge, p_edge)) = drawn else { continue };
+            if p_edge.is_nan() || p_edge <= 0.0 {
+                continue;
+            }
+            let e = &edges.edges[edge];
             let t = es.get(1);
             let q = e.a + (e.b - e.a) * t;
             let to = q - sp.p;

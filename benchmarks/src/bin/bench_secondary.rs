@@ -1,0 +1,122 @@
+//! The secondary boundary at scale: seconds per pose gradient on the furnished room of Sweet Home 3D models
+//! (tests/src/sweet_home.rs: armchair, sofa, oak table, 28k triangles), the armchair's translation and yaw, L2 to
+//! a target with the armchair moved 5 cm, by term: interior + primary alone, then all terms (secondary boundary,
+//! direct and indirect, 1 edge sample per scattering vertex). Flat-shaded as the libraries ship the models (96 %
+//! of the armchair's edges are creases) and auto-smoothed at 30 degrees (`scene::auto_smooth`). Per row: best
+//! of 3 timed single-replica gradients, and the standard error of the translation's x component over 8
+//! replicas (the estimator's noise at that cost).
+//! Then the cost's scaling: a flat-shaded sphere (its tessellation from 1k to 200k triangles, every edge a
+//! crease) moving in the example room, seconds per translation gradient with and without the secondary
+//! boundary (results/secondary_scaling.csv, .svg).
+//! `cargo run -p psdr-benchmarks --release --bin bench_secondary [-- WIDTH HEIGHT SPP]` writes
+//! benchmarks/results/secondary.csv and .svg.
+
+use psdr::backend::CpuBackend;
+use psdr::grad::{analytic_gradient, AdOptions, ImageLoss, Output, ParamPath};
+use psdr::render::{render_cpu, SceneData};
+use psdr::report::chart::BarChart;
+use std::time::Instant;
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<u32> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
+    let (w, h, spp) = (*args.first().unwrap_or(&256), *args.get(1).unwrap_or(&192), *args.get(2).unwrap_or(&4));
+    let mut csv = String::from("shading,triangles,width,height,spp,terms,seconds,grad_x,grad_x_std_err_8\n");
+    let mut rows = vec![];
+    for (shading, angle) in [("flat", None), ("smooth 30 deg", Some(30.0))] {
+        let s = psdr_tests::sweet_home::sweet_home_room_smoothed(w, h, spp, angle)
+            .ok_or_else(|| anyhow::anyhow!("the Sweet Home 3D libraries are not installed"))?;
+        let mut target = s.clone();
+        let a = target.object_index("armchair").unwrap();
+        target.objects[a].pose.translation.x += 0.05;
+        target.settings.spp = 64;
+        let t = render_cpu(&SceneData::build(&target)?, &target.settings, &|_, _| {});
+        let loss = ImageLoss::L2To { output: Output::Radiance, target: t.radiance };
+        let params: Vec<ParamPath> = vec!["object/armchair/translation".parse()?, "object/armchair/yaw".parse()?];
+        let mut times = vec![];
+        for (terms, sppse) in [("interior + primary", 0), ("all terms", 1)] {
+            let opts = AdOptions { replicas: 1, edge_samples: w * h, secondary_edge_samples: sppse };
+            let mut best = f64::INFINITY;
+            for _ in 0..3 {
+                let t0 = Instant::now();
+                analytic_gradient(&s, &params, &loss, &opts, &mut CpuBackend)?;
+                best = best.min(t0.elapsed().as_secs_f64());
+            }
+            let g = analytic_gradient(&s, &params, &loss, &AdOptions { replicas: 8, ..opts }, &mut CpuBackend)?;
+            println!(
+                "{shading:<14} {terms:<20} {best:7.3} s  d/dx {:+.3e} ± {:.1e}  ({} triangles, {w}x{h}, {spp} spp)",
+                g.mean[0],
+                g.std_err[0],
+                s.triangle_count()
+            );
+            csv += &format!(
+                "{shading},{},{w},{h},{spp},{terms},{best:.4},{:.5e},{:.2e}\n",
+                s.triangle_count(),
+                g.mean[0],
+                g.std_err[0]
+            );
+            times.push(best);
+        }
+        rows.push((shading.to_string(), times));
+    }
+    let chart = BarChart {
+        title: format!("Seconds per armchair pose gradient, furnished room, {w}x{h}, {spp} spp (lower is better)"),
+        unit: "s".into(),
+        series: vec!["interior + primary".into(), "all terms (secondary boundary, 1 sample per vertex)".into()],
+        rows,
+        stacked: false,
+    };
+    psdr_benchmarks::write_results("secondary", &csv, &chart.svg())?;
+    scaling(w / 2, h / 2, spp)
+}
+
+/// Seconds per gradient against the moving mesh's triangle count.
+fn scaling(w: u32, h: u32, spp: u32) -> anyhow::Result<()> {
+    use psdr::report::chart::{Point, Series, XyChart};
+    use psdr::scene::{load_scene, sphere_mesh, Object, Pose};
+    let mut csv = String::from("triangles,width,height,spp,terms,seconds\n");
+    let mut series = vec![vec![], vec![]];
+    for (rings, segments) in [(16, 32), (32, 64), (64, 128), (128, 256), (224, 448)] {
+        let mut s = load_scene(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json")))?;
+        (s.camera.width, s.camera.height, s.settings.spp) = (w, h, spp);
+        let mut ball = sphere_mesh(0.35, rings, segments, false);
+        ball.normals = None; // flat-shaded: every edge a crease
+        ball.material = 0;
+        let pose = Pose { translation: glam::Vec3::new(0.6, 0.5, -1.0), ..Default::default() };
+        s.objects.push(Object { name: "ball".into(), parts: vec![ball], pose, emitter: None });
+        let tris = s.objects.last().unwrap().parts[0].indices.len();
+        let loss = ImageLoss::Mean(Output::Radiance);
+        let params: Vec<ParamPath> = vec!["object/ball/translation".parse()?];
+        for (k, (terms, sppse)) in [("interior + primary", 0), ("all terms", 1)].into_iter().enumerate() {
+            let opts = AdOptions { replicas: 1, edge_samples: w * h, secondary_edge_samples: sppse };
+            let mut best = f64::INFINITY;
+            for _ in 0..3 {
+                let t0 = Instant::now();
+                analytic_gradient(&s, &params, &loss, &opts, &mut CpuBackend)?;
+                best = best.min(t0.elapsed().as_secs_f64());
+            }
+            println!("sphere {tris:>7} triangles  {terms:<20} {best:7.3} s");
+            csv += &format!("{tris},{w},{h},{spp},{terms},{best:.4}\n");
+            series[k].push(Point::new(tris as f64, best));
+        }
+    }
+    let names = ["interior + primary", "all terms (secondary boundary)"];
+    let chart = XyChart {
+        title: "Seconds per translation gradient against the moving mesh's triangles".into(),
+        caption: format!("flat-shaded sphere in the example room, {w}x{h}, {spp} spp, CPU (2 threads)"),
+        x_label: "triangles of the moving mesh".into(),
+        y_label: "seconds".into(),
+        log_x: true,
+        log_y: true,
+        series: series
+            .into_iter()
+            .zip(names)
+            .map(|(points, name)| Series::marked(name, points))
+            .collect(),
+        hlines: vec![],
+        width: 640.0,
+        height: 400.0,
+        legend_right: false,
+    };
+    psdr_benchmarks::write_results("secondary_scaling", &csv, &chart.svg())?;
+    Ok(())
+}
