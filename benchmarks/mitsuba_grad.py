@@ -50,7 +50,17 @@ def load_image(path, w, h):
     return a.reshape(h, w, 3)
 
 
-def welded_scene(xml_path):
+def load_scene(xml_path, shape_ids):
+    """Loads with Mitsuba's optimisations (merging meshes), unless that merges away a shape the parameters move
+    (Mitsuba 3.9 merges the parts of a furniture model into one mesh without an id): then without them."""
+    scene = mi.load_file(xml_path)
+    keys = mi.traverse(scene).keys()
+    if all(f"{sid}.vertex_positions" in keys for sid in shape_ids):
+        return scene
+    return mi.load_file(xml_path, optimize=False)
+
+
+def welded_scene(xml_path, shape_ids):
     """The scene with every PLY mesh's vertices merged by position (same triangles, same winding; the export
     keeps face_normals, so shading is unchanged). psdr's box primitive and OBJ faces export with per-face vertex
     copies; Mitsuba then sees every triangle edge as an open boundary (perimeter) edge, which its projective
@@ -77,7 +87,7 @@ def welded_scene(xml_path):
         fn.set("value", rel)
     out = os.path.join(d, "scene_welded.xml")
     tree.write(out)
-    return mi.load_file(out)
+    return load_scene(out, shape_ids)
 
 
 class Params:
@@ -165,7 +175,8 @@ def main():
     mi.set_variant("llvm_ad_rgb")
     w, h = cfg["width"], cfg["height"]
     t = time.perf_counter()
-    scene = mi.load_file(cfg["scene"])
+    shape_ids = [sid for p in cfg["params"] if p["kind"] == "translation" for sid in p["shapes"]]
+    scene = load_scene(cfg["scene"], shape_ids)
     load_s = time.perf_counter() - t
     film = scene.sensors()[0].film()
     assert list(film.size()) == [w, h], f"film {list(film.size())} != {[w, h]}"
@@ -227,7 +238,7 @@ def main():
         sc, st = scene, state
         if spec.get("weld"):
             if welded is None:
-                w_scene = welded_scene(cfg["scene"])
+                w_scene = welded_scene(cfg["scene"], shape_ids)
                 welded = (w_scene, Params(w_scene, cfg["params"]))
             sc, st = welded
         integrator = mi.load_dict({"max_depth": cfg["max_depth"], "rr_depth": cfg["rr_depth"], **props})

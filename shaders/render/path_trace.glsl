@@ -16,6 +16,7 @@
 #include "light.glsl"
 
 #ifndef OBSERVE_HIT
+#define OBSERVE_START(origin, dir)
 #define OBSERVE_HIT(hit, sp, beta)
 #define OBSERVE_EMISSION(emitter, le, mis)
 #define OBSERVE_SCATTER(wi)
@@ -43,6 +44,7 @@ bool unoccluded(vec3 p, vec3 ng, vec3 q, vec3 nq) {
 // The integrator from the ray (origin, dir) on, drawing bounce numbers from s.
 PathSample trace_from(Sampler s, vec3 origin, vec3 dir) {
     CameraGpu cam = camera[0];
+    OBSERVE_START(origin, dir);
     PathSample out_ = PathSample(vec3(0.0), 0.0, vec3(0.0), vec3(0.0), NONE, 0u);
     vec3 beta = vec3(1.0);
     float prev_bsdf_pdf = 0.0;

@@ -236,3 +236,31 @@ pub fn validate_glb(dir: &std::path::Path, glb: &std::path::Path) -> (u64, u64, 
     let issues: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     (issues["numErrors"].as_u64().unwrap(), issues["numWarnings"].as_u64().unwrap(), issues["messages"].to_string())
 }
+
+/// A Vulkan backend from `open`, or None with a note when no device works, unless PSDR_REQUIRE_VULKAN=1 (CI
+/// sets it), which turns a missing device into a failure.
+pub fn vulkan_or_skip(
+    open: impl FnOnce() -> psdr::Result<psdr::backend::VkBackend>,
+) -> Option<psdr::backend::VkBackend> {
+    match open() {
+        Ok(b) => Some(b),
+        Err(e) if std::env::var("PSDR_REQUIRE_VULKAN").is_ok_and(|v| v == "1") => {
+            panic!("PSDR_REQUIRE_VULKAN=1 but the Vulkan backend failed: {e}")
+        }
+        Err(e) => {
+            eprintln!("skipping: no Vulkan device ({e})");
+            None
+        }
+    }
+}
+
+/// With the Khronos validation layer loaded (debug builds, when installed; CI installs it), no validation error
+/// (missing barriers, bad descriptors, out-of-bounds setup).
+pub fn assert_no_validation_errors(vk: &psdr::backend::VkBackend) {
+    let ctx = vk.context();
+    if std::env::var("PSDR_REQUIRE_VULKAN").is_ok_and(|v| v == "1") && cfg!(debug_assertions) {
+        assert!(ctx.validation_enabled(), "CI must run the Vulkan tests with the validation layer");
+    }
+    let errors = ctx.validation_errors();
+    assert!(errors.is_empty(), "validation errors: {errors:?}");
+}

@@ -38,14 +38,16 @@ pub fn sweet_home_room_smoothed(w: u32, h: u32, spp: u32, smooth_angle: Option<f
         if let Some(angle) = smooth_angle {
             parts = parts.iter().map(|p| if p.normals.is_none() { auto_smooth(p, angle) } else { p.clone() }).collect();
         }
-        let m = scene.materials.len();
         let albedo = match name {
             "armchair" => Vec3::new(0.55, 0.2, 0.12),
             "sofa" => Vec3::new(0.2, 0.3, 0.5),
             _ => Vec3::new(0.5, 0.35, 0.2),
         };
-        scene.materials.push(Material::diffuse(name, albedo));
-        parts.iter_mut().for_each(|p| p.material = m);
+        // One material per part (OBJECT:PART, as the pipeline names them), all of the object's colour.
+        for p in parts.iter_mut() {
+            scene.materials.push(Material::diffuse(&format!("{name}:{}", p.name), albedo));
+            p.material = scene.materials.len() - 1;
+        }
         let pose = Pose {
             translation: Vec3::new(x, 0.0, z),
             rotation: Quat::from_rotation_y(yaw.to_radians()),

@@ -28,16 +28,7 @@ use psdr::scene::{sphere_mesh, Emitter, Material, MeshPart, Object, Pose, Scene}
 use psdr_vk::{Buffer, Groups, Kernel, StorageBinding};
 
 fn vk() -> Option<VkBackend> {
-    match VkBackend::new(None) {
-        Ok(b) => Some(b),
-        Err(e) if std::env::var("PSDR_REQUIRE_VULKAN").is_ok_and(|v| v == "1") => {
-            panic!("PSDR_REQUIRE_VULKAN=1 but the Vulkan backend failed: {e}")
-        }
-        Err(e) => {
-            eprintln!("skipping: no Vulkan device ({e})");
-            None
-        }
-    }
+    psdr_tests::vulkan_or_skip(|| VkBackend::new(None))
 }
 
 fn room(width: u32, height: u32, spp: u32) -> Scene {
@@ -114,19 +105,8 @@ fn render_both(vk: &mut VkBackend, s: &Scene) -> (Frame, Frame) {
     let d = SceneData::build(s).unwrap();
     let cpu = CpuBackend.render(&d, &s.settings, &|_, _| {}).unwrap();
     let gpu = vk.render(&d, &s.settings, &|_, _| {}).unwrap();
-    assert_no_validation_errors(vk);
+    psdr_tests::assert_no_validation_errors(vk);
     (cpu, gpu)
-}
-
-/// With the Khronos validation layer loaded (debug builds, when installed; CI installs it), rendering must not
-/// trigger a single validation error (missing barriers, bad descriptors, out-of-bounds setup).
-fn assert_no_validation_errors(vk: &VkBackend) {
-    let ctx = vk.context();
-    if std::env::var("PSDR_REQUIRE_VULKAN").is_ok_and(|v| v == "1") && cfg!(debug_assertions) {
-        assert!(ctx.validation_enabled(), "CI must run the Vulkan tests with the validation layer");
-    }
-    let errors = ctx.validation_errors();
-    assert!(errors.is_empty(), "validation errors: {errors:?}");
 }
 
 /// Fraction of values within 1e-4 relative (+1e-6 absolute), the worst relative and the worst absolute difference.
@@ -242,7 +222,7 @@ fn gpu_result_does_not_depend_on_the_pass_size() {
     vk.set_pass_path_samples(1); // one sample per pass
     let passes = vk.render(&d, &s.settings, &|_, _| {}).unwrap();
     assert_eq!(whole, passes, "one pass and six passes of the same seed differ");
-    assert_no_validation_errors(&vk);
+    psdr_tests::assert_no_validation_errors(&vk);
 }
 
 #[test]
@@ -368,7 +348,7 @@ fn shared_struct_layouts_round_trip_through_a_kernel() {
         [&bufs.0, &bufs.1, &bufs.2, &bufs.3, &textures, &emitters, &lights, &cams, &out];
     kernel.dispatch(&bindings, &fp, Groups::new(1, 1, 1)).unwrap();
     let got = out.download().unwrap();
-    assert_no_validation_errors(&vk);
+    psdr_tests::assert_no_validation_errors(&vk);
     for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
         assert_eq!(g, e, "word {i}: kernel read {g:#x}, Rust wrote {e:#x}");
     }

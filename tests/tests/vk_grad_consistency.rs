@@ -26,26 +26,7 @@ use psdr::scene::{Color, Scene};
 use psdr_tests::SplitMix64;
 
 fn vk() -> Option<VkBackend> {
-    match VkBackend::new(None) {
-        Ok(b) => Some(b),
-        Err(e) if std::env::var("PSDR_REQUIRE_VULKAN").is_ok_and(|v| v == "1") => {
-            panic!("PSDR_REQUIRE_VULKAN=1 but the Vulkan backend failed: {e}")
-        }
-        Err(e) => {
-            eprintln!("skipping: no Vulkan device ({e})");
-            None
-        }
-    }
-}
-
-/// With the Khronos validation layer loaded (debug builds; CI installs it), no validation error.
-fn assert_no_validation_errors(vk: &VkBackend) {
-    let ctx = vk.context();
-    if std::env::var("PSDR_REQUIRE_VULKAN").is_ok_and(|v| v == "1") && cfg!(debug_assertions) {
-        assert!(ctx.validation_enabled(), "CI must run the Vulkan tests with the validation layer");
-    }
-    let errors = ctx.validation_errors();
-    assert!(errors.is_empty(), "validation errors: {errors:?}");
+    psdr_tests::vulkan_or_skip(|| VkBackend::new(None))
 }
 
 /// Every light radiance and every constant albedo of the scene.
@@ -90,7 +71,7 @@ fn direct_light_gradients_agree_with_the_cpu() {
     let worst = worst_relative(&cpu, &gpu, 1e-9);
     eprintln!("direct light, {} components: worst relative difference {worst:.2e}", cpu.len());
     assert!(worst <= 1e-4, "cpu {cpu:?}\ngpu {gpu:?}");
-    assert_no_validation_errors(&vk);
+    psdr_tests::assert_no_validation_errors(&vk);
 }
 
 #[test]
@@ -104,7 +85,7 @@ fn deep_path_gradients_agree_with_the_cpu() {
     let worst = worst_relative(&cpu, &gpu, 1e-6 * scale);
     eprintln!("deep paths, {} components: worst relative difference {worst:.2e}", cpu.len());
     assert!(worst <= 1e-4, "cpu {cpu:?}\ngpu {gpu:?}");
-    assert_no_validation_errors(&vk);
+    psdr_tests::assert_no_validation_errors(&vk);
 }
 
 #[test]

@@ -27,14 +27,7 @@ fn shaders_copy(name: &str) -> PathBuf {
 }
 
 fn backend(dir: Option<&Path>) -> Option<VkBackend> {
-    match VkBackend::with_shader_dir(None, dir) {
-        Ok(b) => Some(b),
-        Err(e) if std::env::var("PSDR_REQUIRE_VULKAN").is_ok_and(|v| v == "1") => panic!("{e}"),
-        Err(e) => {
-            eprintln!("skipping: {e}");
-            None
-        }
-    }
+    psdr_tests::vulkan_or_skip(|| VkBackend::with_shader_dir(None, dir))
 }
 
 #[test]

@@ -35,12 +35,7 @@ fn main() -> anyhow::Result<()> {
         let mut times = vec![];
         for (terms, sppse) in [("interior + primary", 0), ("all terms", 1)] {
             let opts = AdOptions { replicas: 1, edge_samples: w * h, secondary_edge_samples: sppse };
-            let mut best = f64::INFINITY;
-            for _ in 0..3 {
-                let t0 = Instant::now();
-                analytic_gradient(&s, &params, &loss, &opts, &mut CpuBackend)?;
-                best = best.min(t0.elapsed().as_secs_f64());
-            }
+            let best = best_of_3(|| analytic_gradient(&s, &params, &loss, &opts, &mut CpuBackend).map(|_| ()))?;
             let g = analytic_gradient(&s, &params, &loss, &AdOptions { replicas: 8, ..opts }, &mut CpuBackend)?;
             println!(
                 "{shading:<14} {terms:<20} {best:7.3} s  d/dx {:+.3e} ± {:.1e}  ({} triangles, {w}x{h}, {spp} spp)",
@@ -69,6 +64,17 @@ fn main() -> anyhow::Result<()> {
     scaling(w / 2, h / 2, spp)
 }
 
+/// The shortest of three timed runs of `f`, seconds.
+fn best_of_3(mut f: impl FnMut() -> psdr::Result<()>) -> anyhow::Result<f64> {
+    let mut best = f64::INFINITY;
+    for _ in 0..3 {
+        let t0 = Instant::now();
+        f()?;
+        best = best.min(t0.elapsed().as_secs_f64());
+    }
+    Ok(best)
+}
+
 /// Seconds per gradient against the moving mesh's triangle count.
 fn scaling(w: u32, h: u32, spp: u32) -> anyhow::Result<()> {
     use psdr::report::chart::{Point, Series, XyChart};
@@ -76,7 +82,8 @@ fn scaling(w: u32, h: u32, spp: u32) -> anyhow::Result<()> {
     let mut csv = String::from("triangles,width,height,spp,terms,seconds\n");
     let mut series = vec![vec![], vec![]];
     for (rings, segments) in [(16, 32), (32, 64), (64, 128), (128, 256), (224, 448)] {
-        let mut s = load_scene(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json")))?;
+        let mut s =
+            load_scene(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json")))?;
         (s.camera.width, s.camera.height, s.settings.spp) = (w, h, spp);
         let mut ball = sphere_mesh(0.35, rings, segments, false);
         ball.normals = None; // flat-shaded: every edge a crease
@@ -88,12 +95,7 @@ fn scaling(w: u32, h: u32, spp: u32) -> anyhow::Result<()> {
         let params: Vec<ParamPath> = vec!["object/ball/translation".parse()?];
         for (k, (terms, sppse)) in [("interior + primary", 0), ("all terms", 1)].into_iter().enumerate() {
             let opts = AdOptions { replicas: 1, edge_samples: w * h, secondary_edge_samples: sppse };
-            let mut best = f64::INFINITY;
-            for _ in 0..3 {
-                let t0 = Instant::now();
-                analytic_gradient(&s, &params, &loss, &opts, &mut CpuBackend)?;
-                best = best.min(t0.elapsed().as_secs_f64());
-            }
+            let best = best_of_3(|| analytic_gradient(&s, &params, &loss, &opts, &mut CpuBackend).map(|_| ()))?;
             println!("sphere {tris:>7} triangles  {terms:<20} {best:7.3} s");
             csv += &format!("{tris},{w},{h},{spp},{terms},{best:.4}\n");
             series[k].push(Point::new(tris as f64, best));
@@ -107,11 +109,7 @@ fn scaling(w: u32, h: u32, spp: u32) -> anyhow::Result<()> {
         y_label: "seconds".into(),
         log_x: true,
         log_y: true,
-        series: series
-            .into_iter()
-            .zip(names)
-            .map(|(points, name)| Series::marked(name, points))
-            .collect(),
+        series: series.into_iter().zip(names).map(|(points, name)| Series::marked(name, points)).collect(),
         hlines: vec![],
         width: 640.0,
         height: 400.0,

@@ -58,6 +58,9 @@ pub struct ContinueEvent {
 /// grad/path/record.rs). The primal passes `()`, whose methods are empty and compile away, so the renderer and
 /// the recorder run one integrator instead of two hand-synced copies.
 pub trait PathObserver {
+    /// The path starts with the ray (origin, dir).
+    #[inline(always)]
+    fn start(&mut self, _origin: Vec3, _dir: Vec3) {}
     /// A surface was hit, with throughput `beta` arriving; the events that follow belong to this vertex.
     #[inline(always)]
     fn hit(&mut self, _hit: &Hit, _sp: &SurfacePoint, _beta: Vec3) {}
@@ -109,6 +112,7 @@ pub fn trace_from<O: PathObserver>(
     obs: &mut O,
 ) -> PathSample {
     let cam = &d.camera;
+    obs.start(origin, dir);
     let (mut origin, mut dir) = (origin, dir);
     let mut out =
         PathSample { radiance: Vec3::ZERO, depth: 0.0, normal: Vec3::ZERO, albedo: Vec3::ZERO, object: NONE, rays: 0 };

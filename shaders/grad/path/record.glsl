@@ -2,7 +2,8 @@
 // hooks of render/path_trace.glsl write the record (the Rust twin's PathObserver methods). A kernel includes
 // this file before render/path_trace.glsl; the record lives in invocation-private memory, at most
 // MAX_RECORD_DEPTH vertices (the host refuses deeper paths).
-// Rust twin: psdr/src/grad/path/record.rs (the Recorder's hit, emission, scatter, nee, continuation).
+// Rust twin: psdr/src/grad/path/record.rs (the Recorder's hit, emission, scatter, nee, continuation; its start,
+// which keeps the camera ray for the CPU's geometric replays, has nothing to record here).
 // GLSL only: recorder_flush (stores the finished vertex; a Rust Vec is written in place).
 #ifndef PSDR_RECORD_GLSL
 #define PSDR_RECORD_GLSL
@@ -104,6 +105,7 @@ void recorder_continuation(float pdf, float q, vec3 weight, vec3 wo) {
     rec_current.next_wo_local = wo;
 }
 
+#define OBSERVE_START(origin, dir)
 #define OBSERVE_HIT(hit, sp, beta) recorder_hit(hit, sp, beta)
 #define OBSERVE_EMISSION(emitter, le, mis) recorder_emission(emitter, le, mis)
 #define OBSERVE_SCATTER(wi) recorder_scatter(wi)

@@ -5,10 +5,9 @@
 
 use crate::render::bsdf::BsdfParams;
 use crate::render::bvh::Hit;
-use crate::render::camera::camera_ray;
 use crate::render::layout::{FrameParams, NONE};
 use crate::render::light::select_light;
-use crate::render::path_trace::{trace_from, ContinueEvent, NeeEvent, PathObserver};
+use crate::render::path_trace::{trace_from, trace_path_observed, ContinueEvent, NeeEvent, PathObserver};
 use crate::render::sampler::*;
 use crate::render::shading::SurfacePoint;
 use crate::render::SceneData;
@@ -91,19 +90,14 @@ impl PathRecord {
 
 /// Records sample `sample` of pixel (px, py) into `rec`.
 pub fn record_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32, rec: &mut PathRecord) {
-    let cam = &d.camera;
-    let s = Sampler { seed: fp.seed, pixel: py * cam.width + px, sample };
-    let (jx, jy) = s.get2(DIM_PIXEL_X);
-    let dir = camera_ray(cam, px as f32 + jx, py as f32 + jy);
-    record_from(d, fp, &s, Vec3::from(cam.origin), dir, rec);
+    rec.vertices.clear();
+    trace_path_observed(d, fp, px, py, sample, &mut Recorder { d, fp, rec });
 }
 
 /// Records the path that starts with the camera ray (origin, dir), drawing bounce numbers from `s`: the
 /// renderer's own integrator (`render::path_trace::trace_from`) reports each vertex to the recorder.
 pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, dir: Vec3, rec: &mut PathRecord) {
     rec.vertices.clear();
-    rec.origin = origin;
-    rec.dir = dir;
     trace_from(d, fp, s, origin, dir, &mut Recorder { d, fp, rec });
 }
 
@@ -121,6 +115,10 @@ impl Recorder<'_> {
 }
 
 impl PathObserver for Recorder<'_> {
+    fn start(&mut self, origin: Vec3, dir: Vec3) {
+        (self.rec.origin, self.rec.dir) = (origin, dir);
+    }
+
     fn hit(&mut self, hit: &Hit, sp: &SurfacePoint, beta: Vec3) {
         self.rec.vertices.push(RecordedVertex {
             triangle: hit.triangle,
