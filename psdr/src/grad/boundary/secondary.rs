@@ -22,6 +22,7 @@ use crate::grad::boundary::mesh_edges::{mesh_edges, MeshEdge};
 use crate::grad::path::record::{record_from, PathRecord};
 use crate::grad::path::velocity::PoseLayout;
 use crate::render::bsdf::bsdf_eval;
+use crate::render::bvh::trace_occluded;
 use crate::render::layout::FrameParams;
 use crate::render::sampler::Sampler;
 use crate::render::shading::{offset_origin, surface_point};
@@ -31,6 +32,9 @@ use glam::Vec3;
 
 /// Angular offset of the two side directions from an edge (radians).
 const SIDE_EPS: f32 = 1e-4;
+/// The part of the way to an edge point that must be clear for the edge to count as seen from x (the rest
+/// belongs to the edge's own faces).
+const HIDDEN_MARGIN: f32 = 1e-3;
 /// Seed tweaks separating secondary edge and horizon samples from pixel samples.
 const SECONDARY_SEED: u32 = 0xbb67_ae85;
 const HORIZON_SEED: u32 = 0x3c6e_f372;
@@ -192,6 +196,12 @@ pub fn secondary_boundary(
                 continue;
             }
             let n_hat = n_hat / n_len;
+            // An edge point hidden from x (something closer along the ray) has both sides see the occluder: no
+            // jump to estimate, so its two side paths are not traced (one shadow ray instead).
+            let o = offset_origin(sp.p, sp.ng, om);
+            if trace_occluded(&d.nodes, &d.triangles, o, om, (q - o).length() * (1.0 - HIDDEN_MARGIN)) {
+                continue;
+            }
             let mut side = |sign: f32| {
                 let w = (om + n_hat * (sign * SIDE_EPS)).normalize();
                 let f = bsdf_eval(&sp.bsdf, wi, sp.to_local(w));
