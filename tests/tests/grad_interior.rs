@@ -11,7 +11,10 @@ use psdr::grad::{
     analytic_gradient, central_difference, radiance_vjp, AdOptions, FdOptions, GradLayout, ImageLoss, Output, ParamPath,
 };
 use psdr::render::{render_cpu, SceneData};
-use psdr::scene::{load_scene, Scene};
+use psdr::scene::Scene;
+
+mod grad_common;
+use grad_common::scenes::textured_floor_with;
 
 const REPLICAS: u32 = 16;
 
@@ -85,60 +88,6 @@ fn light_radiance_matches_finite_differences() {
 /// A floor textured with a 4x4 EXR (large texels) seen from above, with a uv transform.
 fn textured_floor(uv_transform: &str) -> Scene {
     textured_floor_with(&format!(r#""albedo": {{ "texture": "checker.exr" }}, "specular": 0 {uv_transform}"#))
-}
-
-/// The same floor with its material's fields given (checker.exr: RGB albedo; rough.exr: 1-channel roughness
-/// from 0.2 to 0.8; bumps.exr: a normal map).
-fn textured_floor_with(material: &str) -> Scene {
-    static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-    let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("psdr_grad_texel_{}_{k}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let texels: Vec<f32> = (0..16).map(|i| 0.2 + 0.04 * i as f32).collect();
-    let ch = |k: usize| texels.iter().map(|v| v * [1.0, 0.9, 0.8][k]).collect::<Vec<f32>>();
-    psdr::output::write_exr_channels(
-        &dir.join("checker.exr"),
-        4,
-        4,
-        &[("R".into(), ch(0)), ("G".into(), ch(1)), ("B".into(), ch(2))],
-    )
-    .unwrap();
-    let rough: Vec<f32> = (0..16).map(|i| 0.2 + 0.04 * i as f32).collect();
-    psdr::output::write_exr_channels(&dir.join("rough.exr"), 4, 4, &[("R".into(), rough)]).unwrap();
-    // Tangent-space normals tilted up to ~15° in varying directions.
-    let tilt: Vec<[f32; 3]> = (0..16)
-        .map(|i| {
-            let a = i as f32 * 2.4;
-            let n = glam::Vec3::new(0.25 * a.cos(), 0.25 * a.sin(), 1.0).normalize() * 0.5 + glam::Vec3::splat(0.5);
-            n.to_array()
-        })
-        .collect();
-    let plane = |k: usize| tilt.iter().map(|c| c[k]).collect::<Vec<f32>>();
-    psdr::output::write_exr_channels(
-        &dir.join("bumps.exr"),
-        4,
-        4,
-        &[("R".into(), plane(0)), ("G".into(), plane(1)), ("B".into(), plane(2))],
-    )
-    .unwrap();
-    let scene = format!(
-        r#"{{
-      "format": "psdr-scene", "version": 1,
-      "camera": {{ "origin": [0, 2, 0.01], "target": [0, 0, 0], "up": [0, 0, -1], "fov_y": 50, "width": 32, "height": 32 }},
-      "render": {{ "spp": 8, "max_depth": 3 }},
-      "materials": [ {{ "name": "floor", {material} }},
-                     {{ "name": "white", "albedo": 0.8, "specular": 0 }} ],
-      "shapes": [
-        {{ "name": "floor", "type": "rectangle", "size": [2, 2], "material": "floor", "transform": {{ "rotation_deg": [-90, 0, 0] }} }},
-        {{ "name": "lamp", "type": "rectangle", "size": [1, 1], "material": "white",
-          "transform": {{ "translation": [0.5, 1.5, 0], "rotation_deg": [90, 0, 0] }}, "emitter": {{ "radiance": 5 }} }}
-      ]
-    }}"#
-    );
-    std::fs::write(dir.join("scene.json"), scene).unwrap();
-    let s = load_scene(&dir.join("scene.json")).unwrap();
-    std::fs::remove_dir_all(&dir).ok();
-    s
 }
 
 #[test]

@@ -11,33 +11,13 @@
 
 mod grad_common;
 
-use grad_common::{check_components, scene_from_json};
+use grad_common::check_components;
+use grad_common::scenes::planks;
 use psdr::grad::{AdOptions, ImageLoss, Output, ParamPath};
 use psdr::scene::{load_scene, save_scene, Color, Scene};
 use psdr_tests::SplitMix64;
 
 const REPLICAS: u32 = 12;
-
-/// A 2 m floor of oak planks (texture 64 texels, uv scale 2) under a lamp, seen from above at 32x32.
-fn planks() -> Scene {
-    scene_from_json(
-        "procedural",
-        r#"{
-      "format": "psdr-scene", "version": 1,
-      "camera": { "origin": [0, 2, 0.01], "target": [0, 0, 0], "up": [0, 0, -1], "fov_y": 50, "width": 32, "height": 32 },
-      "render": { "spp": 8, "max_depth": 3 },
-      "materials": [ { "name": "floor", "specular": 0, "uv_transform": { "scale": 2 },
-                       "procedural": { "graph": "oak_planks", "size": 64, "tint": [0.9, 1.0, 1.1],
-                                       "params": { "gap": 0.03, "variation": 0.5 } } },
-                     { "name": "white", "albedo": 0.8, "specular": 0 } ],
-      "shapes": [
-        { "name": "floor", "type": "rectangle", "size": [2, 2], "material": "floor", "transform": { "rotation_deg": [-90, 0, 0] } },
-        { "name": "lamp", "type": "rectangle", "size": [1, 1], "material": "white",
-          "transform": { "translation": [0.5, 1.5, 0], "rotation_deg": [90, 0, 0] }, "emitter": { "radiance": 5 } }
-      ]
-    }"#,
-    )
-}
 
 fn weights(s: &Scene) -> ImageLoss {
     let mut rng = SplitMix64(5);

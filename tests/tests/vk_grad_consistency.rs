@@ -1,5 +1,6 @@
 //! The Vulkan adjoint pass (shaders/grad/interior/material_light.comp) against its CPU twin
-//! (`grad::radiance_vjp`), same scene, same seed, same adjoint image: light radiances and albedo constants.
+//! (`grad::radiance_vjp`), same scene, same seed, same adjoint image: light radiances, albedo, roughness and
+//! specular constants, albedo and roughness texels, procedural graph parameters and tints, uv transforms.
 //!
 //! Without a Vulkan device these tests print a note and pass, unless PSDR_REQUIRE_VULKAN=1 (CI sets it).
 //!
@@ -17,29 +18,41 @@
 //!     would move a sum by up to one path's share, about 3e-4 here; none flips in this image on lavapipe);
 //! (4) the result does not depend on the pass size (bit-identical), the device is used (not the fallback), and
 //!     the validation layer reports nothing.
-//! Measured on lavapipe (Mesa 22.3): (1) 64 of 64 single-path pixels agree; (2) worst 3.9e-8; (3) worst 4.3e-6.
-//! And the interior FD checks on the device (albedo, light radiance; renders and gradient both on Vulkan).
+//! Measured on lavapipe (Mesa 22.3): (1) 64 of 64 single-path pixels agree; (2) worst 4.3e-8; (3) worst 1.1e-5;
+//! texture space (direct paths up to 3 vertices) worst 8.9e-9.
+//! And the interior FD checks on the device (albedo, light radiance, roughness, specular; renders and gradient
+//! both on Vulkan).
 
 use psdr::backend::{Backend, VkBackend};
 use psdr::grad::{radiance_vjp, GradLayout, ParamPath};
 use psdr::render::SceneData;
-use psdr::scene::{Color, Scene};
+use psdr::scene::{Color, Scalar, Scene};
 use psdr_tests::SplitMix64;
+
+mod grad_common;
+use grad_common::scenes::{planks, textured_floor_with};
 
 fn vk() -> Option<VkBackend> {
     psdr_tests::vulkan_or_skip(|| VkBackend::new(None))
 }
 
-/// Every light radiance and every constant albedo of the scene.
+/// Every light radiance and every constant albedo, roughness and specular of the scene (the example room's
+/// walnut, fabric and ceramic are glossy dielectrics, its metals have specular 1: every branch of the BSDF
+/// derivative is taken).
 fn params(s: &Scene) -> Vec<ParamPath> {
     let mut p: Vec<ParamPath> =
         s.objects.iter().filter(|o| o.emitter.is_some()).map(|o| ParamPath::LightRadiance(o.name.clone())).collect();
-    p.extend(
-        s.materials
-            .iter()
-            .filter(|m| matches!(m.albedo, Color::Constant(_)))
-            .map(|m| ParamPath::MaterialAlbedo(m.name.clone())),
-    );
+    for m in &s.materials {
+        if matches!(m.albedo, Color::Constant(_)) {
+            p.push(ParamPath::MaterialAlbedo(m.name.clone()));
+        }
+        if matches!(m.roughness, Scalar::Constant(_)) {
+            p.push(ParamPath::MaterialRoughness(m.name.clone()));
+        }
+        if matches!(m.specular, Scalar::Constant(_)) {
+            p.push(ParamPath::MaterialSpecular(m.name.clone()));
+        }
+    }
     p
 }
 
@@ -49,12 +62,17 @@ fn random_adjoint(n: usize, seed: u64) -> Vec<f32> {
 }
 
 fn both(vk: &mut VkBackend, s: &Scene, adjoint: &[f32]) -> (Vec<f64>, Vec<f64>, Vec<ParamPath>) {
-    let d = SceneData::build(s).unwrap();
     let p = params(s);
-    let layout = GradLayout::new(s, &p).unwrap();
+    let (cpu, gpu) = both_for(vk, s, &p, adjoint);
+    (cpu, gpu, p)
+}
+
+fn both_for(vk: &mut VkBackend, s: &Scene, p: &[ParamPath], adjoint: &[f32]) -> (Vec<f64>, Vec<f64>) {
+    let d = SceneData::build(s).unwrap();
+    let layout = GradLayout::new(s, p).unwrap();
     let cpu = radiance_vjp(&d, &s.settings, &layout, adjoint).unwrap();
     let gpu = vk.radiance_vjp_on_device(&d, &s.settings, &layout, adjoint).unwrap().expect("covered by the device");
-    (cpu, gpu, p)
+    (cpu, gpu)
 }
 
 fn worst_relative(cpu: &[f64], gpu: &[f64], absolute: f64) -> f64 {
@@ -119,15 +137,60 @@ fn paths_that_do_not_flip_give_the_same_gradient() {
     assert!(checked >= 55, "only {checked} of 64 paths did not flip");
 }
 
+/// Texture-space parameters: the kernel writes each vertex's texture reads and the host carries them into
+/// texels, whole procedural maps (then through the graph's backward) and uv transforms with the CPU's own
+/// `texture_read_adjoint`. A floor with a 4x4 albedo and roughness texture (large texels) and a uv transform,
+/// and a floor of procedural oak planks (its graph parameters, tint, uv transform), each with the constants.
+#[test]
+fn texture_space_gradients_agree_with_the_cpu() {
+    let Some(mut vk) = vk() else { return };
+    let texel_floor = textured_floor_with(
+        r#""albedo": { "texture": "checker.exr" }, "roughness": { "texture": "rough.exr" }, "specular": 0.8,
+           "uv_transform": { "scale": [1.5, 1.5], "rotation_deg": 20 }"#,
+    );
+    let planks = planks();
+    let texture_params = [
+        (
+            &texel_floor,
+            vec!["albedo.texel[1,2]", "albedo.texel[3,0]", "roughness.texel[1,2]", "uv_scale", "uv_rotation"],
+        ),
+        (&planks, vec!["graph.gap", "graph.variation", "tint", "uv_scale", "uv_rotation"]),
+    ];
+    for (k, (s, fields)) in texture_params.into_iter().enumerate() {
+        let mut p = params(s);
+        let constants = p.len();
+        p.extend(fields.iter().map(|f| format!("material/floor/{f}").parse::<ParamPath>().unwrap()));
+        let layout = GradLayout::new(s, &p).unwrap();
+        assert!(layout.device_slots().is_some_and(|d| d.texture_reads), "the device covers {p:?}");
+        let adjoint = random_adjoint((s.camera.width * s.camera.height * 3) as usize, 7 + k as u64);
+        let (cpu, gpu) = both_for(&mut vk, s, &p, &adjoint);
+        let textured = &cpu[layout.offsets[constants]..];
+        assert!(textured.iter().all(|g| g.abs() > 0.0), "every texture-space component is reached: {textured:?}");
+        let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
+        let worst = worst_relative(&cpu, &gpu, 1e-6 * scale);
+        eprintln!("texture space ({fields:?}), {} components: worst relative difference {worst:.2e}", cpu.len());
+        assert!(worst <= 1e-4, "cpu {cpu:?}\ngpu {gpu:?}");
+    }
+    psdr_tests::assert_no_validation_errors(&vk);
+}
+
 #[test]
 fn gradient_does_not_depend_on_the_pass_size() {
     let Some(mut vk) = vk() else { return };
     let s = psdr_tests::example_room(24, 18, 4);
     let adjoint = random_adjoint(24 * 18 * 3, 5);
     let (_, whole, _) = both(&mut vk, &s, &adjoint);
-    vk.set_pass_path_samples(4 * 50); // 50 pixels a pass
+    // With texture reads too (their buffer is split with the rows).
+    let planks = planks();
+    let mut p = params(&planks);
+    p.extend(["material/floor/graph.gap", "material/floor/uv_scale"].map(|f| f.parse::<ParamPath>().unwrap()));
+    let planks_adjoint = random_adjoint(32 * 32 * 3, 9);
+    let (_, whole_planks) = both_for(&mut vk, &planks, &p, &planks_adjoint);
+    vk.set_pass_path_samples(4 * 50); // 50 pixels a pass (25 at the planks' 8 spp)
     let (_, split, _) = both(&mut vk, &s, &adjoint);
     assert_eq!(whole, split);
+    let (_, split_planks) = both_for(&mut vk, &planks, &p, &planks_adjoint);
+    assert_eq!(whole_planks, split_planks);
 }
 
 /// Through the backend interface (`psdr grad --backend vk`, the optimiser): the analytic gradient of a loss on
@@ -150,22 +213,30 @@ fn analytic_gradients_agree_on_either_backend() {
 }
 
 /// The interior tests' finite-difference checks (tests/tests/grad_interior.rs) on the Vulkan backend: both the
-/// analytic gradient and the central differences (whose renders run on the device too) for a wall albedo and
-/// the light's radiance, same bound (4 combined standard errors over 8 seeds; a t distribution with 7 degrees of
+/// analytic gradient and the central differences (whose renders run on the device too) for a wall albedo, the
+/// light's radiance and the glossy table's roughness and specular, same bound (4 combined standard errors over 8 seeds; a t distribution with 7 degrees of
 /// freedom fails a correct implementation with probability under 1 % per comparison; seeds fixed).
 #[test]
 fn finite_differences_on_the_device_agree_with_its_gradients() {
     let Some(mut vk) = vk() else { return };
-    let s = psdr_tests::example_room(32, 24, 8);
+    let room = psdr_tests::example_room(32, 24, 8);
+    let planks = planks();
+    // The walnut table top seen from above, large in the image (as grad_interior.rs's roughness check).
+    let mut table = psdr_tests::example_room(40, 30, 8);
+    table.camera.origin = glam::Vec3::new(0.2, 1.6, 0.4);
     let loss = psdr::grad::ImageLoss::Mean(psdr::grad::Output::Radiance);
-    for (path, step, components) in
-        [("material/accent_wall/albedo", 0.02f32, vec![0usize, 1, 2]), ("light/ceiling_light/radiance", 0.5, vec![1])]
-    {
+    for (s, path, step, components) in [
+        (&room, "material/accent_wall/albedo", 0.02f32, vec![0usize, 1, 2]),
+        (&room, "light/ceiling_light/radiance", 0.5, vec![1]),
+        (&table, "material/walnut/roughness", 0.04, vec![0]),
+        (&table, "material/walnut/specular", 0.02, vec![0]),
+        (&planks, "material/floor/tint", 0.02, vec![0, 1, 2]),
+    ] {
         let p: ParamPath = path.parse().unwrap();
         let opts = psdr::grad::AdOptions { replicas: 8, edge_samples: 0, secondary_edge_samples: 0 };
-        let ad = psdr::grad::analytic_gradient(&s, std::slice::from_ref(&p), &loss, &opts, &mut vk).unwrap();
+        let ad = psdr::grad::analytic_gradient(s, std::slice::from_ref(&p), &loss, &opts, &mut vk).unwrap();
         let fd_opts = psdr::grad::FdOptions { step, replicas: 8, components: components.clone() };
-        let fd = psdr::grad::central_difference(&s, &p, &loss, &fd_opts, &mut vk).unwrap();
+        let fd = psdr::grad::central_difference(s, &p, &loss, &fd_opts, &mut vk).unwrap();
         for (k, &c) in components.iter().enumerate() {
             let bound = 4.0 * (ad.std_err[c].powi(2) + fd.std_err[k].powi(2)).sqrt();
             eprintln!(

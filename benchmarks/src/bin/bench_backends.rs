@@ -1,6 +1,6 @@
 //! CPU backend against the Vulkan backend (whatever device psdr-vk picks: lavapipe here, a GPU where one exists)
-//! on the same scenes and seeds, for the primal render and for the adjoint pass of light radiances and albedo
-//! constants (`Backend::radiance_vjp`, a random adjoint image): seconds per pass (best of 3 after a warm-up),
+//! on the same scenes and seeds, for the primal render and for the adjoint pass of light radiances and albedo,
+//! roughness and specular constants (`Backend::radiance_vjp`, a random adjoint image): seconds per pass (best of 3 after a warm-up),
 //! Mpaths/s (pixels x spp per second) and Mrays/s for the primal, plus the backends' agreement (the images'
 //! mean, the gradients' worst component), written to benchmarks/results/backends.csv and backends.svg.
 //! `cargo run -p psdr-benchmarks --release --bin bench_backends [-- OUT.csv]`
@@ -8,8 +8,8 @@
 use psdr::backend::{Backend, CpuBackend, VkBackend};
 use psdr::grad::{GradLayout, ParamPath};
 use psdr::render::{Frame, SceneData};
-use psdr::scene::Color;
 use psdr::scene::{load_scene, sphere_mesh, Object, Pose, Scene};
+use psdr::scene::{Color, Scalar};
 use std::time::Instant;
 
 fn room(width: u32, height: u32, spp: u32) -> anyhow::Result<Scene> {
@@ -41,12 +41,17 @@ fn adjoint_best_of(
 ) -> anyhow::Result<(f64, Vec<f64>)> {
     let mut params: Vec<ParamPath> =
         s.objects.iter().filter(|o| o.emitter.is_some()).map(|o| ParamPath::LightRadiance(o.name.clone())).collect();
-    params.extend(
-        s.materials
-            .iter()
-            .filter(|m| matches!(m.albedo, Color::Constant(_)))
-            .map(|m| ParamPath::MaterialAlbedo(m.name.clone())),
-    );
+    for m in &s.materials {
+        if matches!(m.albedo, Color::Constant(_)) {
+            params.push(ParamPath::MaterialAlbedo(m.name.clone()));
+        }
+        if matches!(m.roughness, Scalar::Constant(_)) {
+            params.push(ParamPath::MaterialRoughness(m.name.clone()));
+        }
+        if matches!(m.specular, Scalar::Constant(_)) {
+            params.push(ParamPath::MaterialSpecular(m.name.clone()));
+        }
+    }
     let layout = GradLayout::new(s, &params)?;
     let n = (s.camera.width * s.camera.height * 3) as usize;
     let adjoint: Vec<f32> = (0..n).map(|i| ((i * 7919 % 1000) as f32 / 1000.0 - 0.3) / n as f32).collect();

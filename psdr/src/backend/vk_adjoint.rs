@@ -1,17 +1,22 @@
-//! The Vulkan backend's adjoint pass for light radiances and material albedo constants
-//! (shaders/grad/interior/material_light.comp, the GLSL twin of `grad::radiance_vjp`): each pixel's samples
-//! are recorded and swept on the device into the pixel's own row of gradients, and the rows are summed here in
-//! pixel order (f64), so the result does not depend on scheduling or on the pass size. Passes cover as many
-//! pixels as keep both the paths per submission and the rows' buffer within bounds.
+//! The Vulkan backend's adjoint pass for light radiances, material albedo, roughness and specular constants,
+//! texels, procedural albedo maps and uv transforms (shaders/grad/interior/material_light.comp, the GLSL twin
+//! of `grad::radiance_vjp`): each pixel's samples are recorded and swept on the device into the pixel's own row
+//! of gradients, and the rows are summed here in pixel order (f64), so the result does not depend on
+//! scheduling or on the pass size. Texture-space adjoints (a whole texture's gradient does not fit a row per
+//! pixel) come back per path vertex and are carried into texels and transforms here by the CPU's own
+//! `texture_read_adjoint`, in pixel, sample and sweep order. Passes cover as many pixels as keep the paths per
+//! submission and both buffers within bounds.
 
 use super::vk_backend::{backend_error, upload, upload_scene, VkBackend};
 use crate::error::{Error, Result};
+use crate::grad::interior::material_light::texture_read_adjoint;
 use crate::grad::GradLayout;
 use crate::render::cpu::frame_params;
-use crate::render::layout::FrameParams;
+use crate::render::layout::{FrameParams, NONE};
 use crate::render::SceneData;
 use crate::scene::RenderSettings;
 use bytemuck::{Pod, Zeroable};
+use glam::{Vec2, Vec3};
 use psdr_vk::{Buffer, Groups, StorageBinding};
 
 /// Push constants of the adjoint kernel (its `Push` block).
@@ -23,17 +28,24 @@ pub struct AdjointParams {
     pub pixel_begin: u32,
     pub pixel_count: u32,
     pub material_count: u32,
+    pub emitter_count: u32,
+    /// 1 when some material's texture reads are wanted (the kernel writes them out), else 0.
+    pub texture_reads: u32,
 }
+
+/// u32 per texture read the kernel writes (TEXTURE_READ_FLOATS): material, uv, d_albedo, d_rough, padding.
+const TEXTURE_READ_WORDS: usize = 8;
 
 /// Longest path the kernel records (MAX_RECORD_DEPTH in shaders/grad/path/record.glsl).
 pub const MAX_RECORD_DEPTH: u32 = 16;
 
-/// Largest gradient-rows buffer of one pass, bytes (well inside maxStorageBufferRange, 128 MiB on lavapipe).
+/// Largest gradient-rows or texture-reads buffer of one pass, bytes (well inside maxStorageBufferRange, 128 MiB
+/// on lavapipe).
 const MAX_ROWS_BYTES: u64 = 64 << 20;
 
 impl VkBackend {
-    /// `grad::radiance_vjp` on the device, when its layout asks only for what the kernel computes (light
-    /// radiances and albedo constants, `GradLayout::device_slots`); `Ok(None)` otherwise.
+    /// `grad::radiance_vjp` on the device, when its layout asks only for what the kernel covers
+    /// (`GradLayout::device_slots`); `Ok(None)` otherwise.
     pub fn radiance_vjp_on_device(
         &mut self,
         d: &SceneData,
@@ -41,7 +53,7 @@ impl VkBackend {
         layout: &GradLayout,
         adjoint: &[f32],
     ) -> Result<Option<Vec<f64>>> {
-        let Some((albedo, emitters)) = layout.device_slots() else { return Ok(None) };
+        let Some(slots) = layout.device_slots() else { return Ok(None) };
         let (w, h) = (d.camera.width as usize, d.camera.height as usize);
         if adjoint.len() != w * h * 3 {
             return Err(Error::Invalid(format!("adjoint image has {} values, expected {}", adjoint.len(), w * h * 3)));
@@ -62,15 +74,19 @@ impl VkBackend {
         let ctx = &self.ctx;
         let scene = upload_scene(ctx, d)?;
         let adjoint_buf = upload(ctx, "adjoint", adjoint)?;
-        let slots: Vec<u32> = albedo.iter().chain(&emitters).copied().collect();
-        let slots_buf = upload(ctx, "slots", &slots)?;
+        let slots_buf = upload(ctx, "slots", &slots.table)?;
         let fp = frame_params(d, settings);
         let pixels = w * h;
         let by_paths = (self.pass_path_samples / u64::from(fp.spp.max(1))).max(1);
         let by_rows = (MAX_ROWS_BYTES / (len as u64 * 4)).max(1);
-        let per_pass = by_paths.min(by_rows).min(pixels as u64) as usize;
+        let reads_per_pixel = (fp.spp * MAX_RECORD_DEPTH) as usize * TEXTURE_READ_WORDS;
+        let by_reads =
+            if slots.texture_reads { (MAX_ROWS_BYTES / (reads_per_pixel as u64 * 4)).max(1) } else { u64::MAX };
+        let per_pass = by_paths.min(by_rows).min(by_reads).min(pixels as u64) as usize;
         let rows = Buffer::<f32>::zeroed(ctx, "grad_rows", per_pass * len).map_err(backend_error)?;
-        let mut grad = vec![0.0f64; len];
+        let reads_len = if slots.texture_reads { per_pass * reads_per_pixel } else { 1 };
+        let reads = Buffer::<u32>::zeroed(ctx, "texture_reads", reads_len).map_err(backend_error)?;
+        let mut grad = vec![0.0f64; layout.extended_len];
         let mut begin = 0;
         while begin < pixels {
             let count = per_pass.min(pixels - begin);
@@ -79,12 +95,14 @@ impl VkBackend {
                 grad_len: len as u32,
                 pixel_begin: begin as u32,
                 pixel_count: count as u32,
-                material_count: albedo.len() as u32,
+                material_count: slots.materials as u32,
+                emitter_count: slots.emitters as u32,
+                texture_reads: u32::from(slots.texture_reads),
             };
             let bindings: Vec<&dyn StorageBinding> = scene
                 .iter()
                 .map(|b| b.as_ref())
-                .chain([&adjoint_buf as &dyn StorageBinding, &slots_buf, &rows])
+                .chain([&adjoint_buf as &dyn StorageBinding, &slots_buf, &rows, &reads])
                 .collect();
             self.material_light_vjp
                 .dispatch(&bindings, &push, Groups::folded_2d(count as u64, 64))
@@ -93,8 +111,19 @@ impl VkBackend {
             for row in values.chunks_exact(len) {
                 grad.iter_mut().zip(row).for_each(|(g, &v)| *g += v as f64);
             }
+            if slots.texture_reads {
+                let words = reads.download_range(0, count * reads_per_pixel).map_err(backend_error)?;
+                let path_words = MAX_RECORD_DEPTH as usize * TEXTURE_READ_WORDS;
+                for path in words.chunks_exact(path_words) {
+                    for e in path.chunks_exact(TEXTURE_READ_WORDS).take_while(|e| e[0] != NONE) {
+                        let f = |k: usize| f32::from_bits(e[k]);
+                        let (uv, d_albedo) = (Vec2::new(f(1), f(2)), Vec3::new(f(3), f(4), f(5)));
+                        texture_read_adjoint(d, layout, e[0] as usize, uv, d_albedo, f(6), &mut grad);
+                    }
+                }
+            }
             begin += count;
         }
-        Ok(Some(grad))
+        layout.finish(grad).map(Some)
     }
 }

@@ -59,7 +59,7 @@ impl VkBackend {
             "grad/interior/material_light",
             psdr_vk::include_spirv!("grad/interior/material_light"),
         )?;
-        let material_light_vjp = Kernel::new(&ctx, "material_light_vjp", &words, 12).map_err(backend_error)?;
+        let material_light_vjp = Kernel::new(&ctx, "material_light_vjp", &words, 13).map_err(backend_error)?;
         Ok(VkBackend { ctx, path_trace, material_light_vjp, pass_path_samples: PASS_PATH_SAMPLES })
     }
 
@@ -83,8 +83,8 @@ pub(super) fn upload<T: bytemuck::Pod>(ctx: &Context, name: &str, data: &[T]) ->
 }
 
 impl Backend for VkBackend {
-    /// On the device where the adjoint kernels cover the layout (light radiances, albedo constants), else the
-    /// CPU reference (roughness, specular, texels, uv transforms and procedural graphs are not ported yet).
+    /// On the device where the adjoint kernels cover the layout (light radiances, albedo, roughness and specular
+    /// constants), else the CPU reference (texels, uv transforms and procedural graphs are not ported yet).
     fn radiance_vjp(
         &mut self,
         data: &SceneData,

@@ -20,7 +20,7 @@
 mod ad;
 mod boundary;
 mod estimate;
-mod interior;
+pub(crate) mod interior;
 mod path;
 mod vjp;
 
@@ -31,7 +31,7 @@ pub use estimate::analytic::{analytic_gradient, AdEstimate, AdOptions, GradientE
 pub use estimate::finite_difference::{central_difference, mean_and_std_err, FdEstimate, FdOptions};
 pub use estimate::image_loss::{ImageLoss, Output, PixelwiseAdjoint};
 pub use interior::fused_l2::radiance_vjp_cross;
-pub use interior::material_light::{radiance_vjp, GradLayout};
+pub use interior::material_light::{radiance_vjp, DeviceSlots, GradLayout};
 pub use path::velocity::{PoseComponent, PoseLayout};
 pub use vjp::aov::{aov_vjp, aovs_vjp, AovAdjoints};
 pub use vjp::outputs::{in_param_order, moves_geometry, outputs_vjp, OutputAdjoints};

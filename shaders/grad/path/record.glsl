@@ -16,10 +16,11 @@
 const uint MAX_RECORD_DEPTH = 16u;
 
 // The fields of the Rust twin's RecordedVertex that the GPU adjoint reads (emission, next-event and
-// continuation terms; their detached densities).
+// continuation terms; their detached densities; the texture coordinates after the uv transform).
 struct RecordedVertex {
     vec3 throughput;
     uint material;
+    vec2 uv;
     uint emitter;
     float emission_mis;
     vec3 local;
@@ -57,6 +58,7 @@ void recorder_hit(Hit hit, SurfacePoint sp, vec3 beta) {
     RecordedVertex v;
     v.throughput = beta;
     v.material = triangles[hit.triangle].material;
+    v.uv = sp.uv;
     v.emitter = NONE;
     v.emission_mis = 0.0;
     v.local = vec3(0.0);

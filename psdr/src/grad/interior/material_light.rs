@@ -29,12 +29,12 @@ use crate::scene::{Color, Procedural, RenderSettings, Scalar, Scene};
 use glam::{Vec2, Vec3};
 use psdr_materials::{TextureTransform, TextureView, TransformGrad};
 
-/// Which BSDF derivatives a material's parameters need.
+/// Which BSDF derivatives a material's parameters need (the discriminants are the GPU adjoint's codes).
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Wanted {
-    Nothing,
-    Albedo,
-    All,
+    Nothing = 0,
+    Albedo = 1,
+    All = 2,
 }
 
 /// Where each differentiable quantity's gradient goes in the flat gradient vector.
@@ -55,6 +55,9 @@ pub struct GradLayout {
     normal_texels: Vec<(u32, u32, usize)>,
     /// Per material: which derivatives of its BSDF values some parameter needs.
     material_wanted: Vec<Wanted>,
+    /// Per material: some parameter lives in texture space (texels, whole maps, the uv transform), so the albedo
+    /// and roughness adjoints read at a vertex go through `texture_read_adjoint`.
+    texture_reads: Vec<bool>,
     /// Some parameter moves shading normals (normal-map texels, the uv transform of a normal-mapped material).
     pub(crate) shading_normal_wanted: bool,
     /// Per material: offsets of uv scale (2) and rotation (1) gradients, and the transform itself.
@@ -67,6 +70,19 @@ pub struct GradLayout {
     chains: Vec<ProceduralChain>,
     /// Length of the gradient vector the passes accumulate: `len` plus the whole textures.
     pub(crate) extended_len: usize,
+}
+
+/// The GPU adjoint's slot table (`GradLayout::device_slots`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeviceSlots {
+    pub materials: usize,
+    pub emitters: usize,
+    /// Albedo offsets per material, radiance offsets per emitter, roughness and specular offsets per material,
+    /// then per material the BSDF derivatives wanted (0 none, 1 albedo, 2 all) and whether its texture reads
+    /// are wanted (1) or not (0).
+    pub table: Vec<u32>,
+    /// Some material's texture reads are wanted: the kernel writes them out for `texture_read_adjoint`.
+    pub texture_reads: bool,
 }
 
 /// A procedural material some of whose graph parameters or tint are requested.
@@ -106,6 +122,7 @@ impl GradLayout {
             rough_texels: vec![],
             normal_texels: vec![],
             material_wanted: vec![],
+            texture_reads: vec![],
             shading_normal_wanted: false,
             uv_scale: vec![None; scene.materials.len()],
             uv_rotation: vec![None; scene.materials.len()],
@@ -226,6 +243,20 @@ impl GradLayout {
                 }
             })
             .collect();
+        l.texture_reads = scene
+            .materials
+            .iter()
+            .enumerate()
+            .map(|(m, mat)| {
+                let albedo_tex = if let Color::Texture(t) = mat.albedo { Some(t) } else { None };
+                let rough_tex = if let Scalar::Texture(t) = mat.roughness { Some(t) } else { None };
+                l.uv_scale[m].is_some()
+                    || l.uv_rotation[m].is_some()
+                    || has(&l.texels, albedo_tex)
+                    || albedo_tex.is_some_and(|t| l.albedo_maps.iter().any(|e| e.0 as usize == t))
+                    || has(&l.rough_texels, rough_tex)
+            })
+            .collect();
         l.shading_normal_wanted =
             !l.normal_texels.is_empty()
                 || scene.materials.iter().enumerate().any(|(m, mat)| {
@@ -235,17 +266,40 @@ impl GradLayout {
     }
 
     /// What the GPU adjoint (shaders/grad/interior/material_light.comp) needs when it covers every requested
-    /// parameter: per material the offset of its albedo gradient and per emitter that of its radiance gradient
-    /// (`u32::MAX` for none). `None` when some parameter is of a kind the GPU pass does not compute yet
-    /// (roughness, specular, texels, uv transforms, procedural graphs) or its derivatives need more than albedo.
-    pub fn device_slots(&self) -> Option<(Vec<u32>, Vec<u32>)> {
-        let only_albedo_and_emitters =
-            self.params.iter().all(|p| matches!(p, ParamPath::LightRadiance(_) | ParamPath::MaterialAlbedo(_)));
-        if !only_albedo_and_emitters || self.extended_len != self.len {
+    /// parameter (`DeviceSlots`). `None` when some parameter is of a kind the GPU pass does not compute yet
+    /// (normal-map texels, the uv transform of a normal-mapped material, anything that moves geometry).
+    pub fn device_slots(&self) -> Option<DeviceSlots> {
+        use crate::scene::TextureSlot;
+        let covered = self.params.iter().all(|p| {
+            matches!(
+                p,
+                ParamPath::LightRadiance(_)
+                    | ParamPath::MaterialAlbedo(_)
+                    | ParamPath::MaterialRoughness(_)
+                    | ParamPath::MaterialSpecular(_)
+                    | ParamPath::MaterialTexel { slot: TextureSlot::Albedo | TextureSlot::Roughness, .. }
+                    | ParamPath::UvScale(_)
+                    | ParamPath::UvRotation(_)
+                    | ParamPath::GraphParam { .. }
+                    | ParamPath::ProceduralTint(_)
+            )
+        });
+        if !covered || self.shading_normal_wanted {
             return None;
         }
         let slot = |o: &Option<usize>| o.map_or(u32::MAX, |o| o as u32);
-        Some((self.albedo.iter().map(slot).collect(), self.emitter.iter().map(slot).collect()))
+        let mut table: Vec<u32> = [&self.albedo, &self.emitter, &self.roughness, &self.specular]
+            .iter()
+            .flat_map(|v| v.iter().map(slot))
+            .collect();
+        table.extend(self.material_wanted.iter().map(|&w| w as u32));
+        table.extend(self.texture_reads.iter().map(|&r| u32::from(r)));
+        Some(DeviceSlots {
+            materials: self.albedo.len(),
+            emitters: self.emitter.len(),
+            table,
+            texture_reads: self.texture_reads.contains(&true),
+        })
     }
 
     /// The requested gradients (`len` values) from the extended vector the passes accumulated: whole-texture
@@ -341,31 +395,47 @@ pub(crate) fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVer
         if let Some(o) = l.specular[m] {
             grad[o] += (d_spec.x + d_spec.y + d_spec.z) as f64;
         }
-        if l.uv_scale[m].is_some() || l.uv_rotation[m].is_some() {
-            uv_transform_adjoint(d, l, m, v.uv, d_albedo, d_rough.x + d_rough.y + d_rough.z, grad);
-        }
-        let tex = d.materials[m].albedo_tex;
-        for &(t, texel, o) in l.texels.iter().filter(|e| e.0 == tex) {
-            let wgt = bilinear_weight(&d.textures[t as usize], v.uv, texel);
-            add3(grad, Some(o), d_albedo * wgt);
-        }
-        for &(t, o) in l.albedo_maps.iter().filter(|e| e.0 == tex) {
-            let f = texture_footprint(&d.textures[t as usize], v.uv);
-            let (fx, fy) = (f.fx, f.fy);
-            for (texel, wgt) in f.texel.iter().zip([(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy])
-            {
-                add3(grad, Some(o + 3 * *texel as usize), d_albedo * wgt);
-            }
-        }
-        // The primal clamps roughness to [0, 1]; a clamped lookup does not move.
-        let tex = d.materials[m].roughness_tex;
-        for &(t, texel, o) in l.rough_texels.iter().filter(|e| e.0 == tex) {
-            let tg = &d.textures[t as usize];
-            if (0.0..=1.0).contains(&crate::render::texture::texture_sample(&d.texels, tg, v.uv, 0)) {
-                grad[o] += ((d_rough.x + d_rough.y + d_rough.z) * bilinear_weight(tg, v.uv, texel)) as f64;
-            }
+        if l.texture_reads[m] {
+            texture_read_adjoint(d, l, m, v.uv, d_albedo, d_rough.x + d_rough.y + d_rough.z, grad);
         }
         r_next = v.local + beta * r_next;
+    }
+}
+
+/// Carries the adjoints of the albedo and roughness material `m` read at (transformed) `uv` into texture space:
+/// single texels, whole albedo maps of procedural materials, and the uv transform. The GPU adjoint writes these
+/// arguments out per vertex and the host calls this in the CPU's order (backend/vk_adjoint.rs).
+pub(crate) fn texture_read_adjoint(
+    d: &SceneData,
+    l: &GradLayout,
+    m: usize,
+    uv: Vec2,
+    d_albedo: Vec3,
+    d_rough: f32,
+    grad: &mut [f64],
+) {
+    if l.uv_scale[m].is_some() || l.uv_rotation[m].is_some() {
+        uv_transform_adjoint(d, l, m, uv, d_albedo, d_rough, grad);
+    }
+    let tex = d.materials[m].albedo_tex;
+    for &(t, texel, o) in l.texels.iter().filter(|e| e.0 == tex) {
+        let wgt = bilinear_weight(&d.textures[t as usize], uv, texel);
+        add3(grad, Some(o), d_albedo * wgt);
+    }
+    for &(t, o) in l.albedo_maps.iter().filter(|e| e.0 == tex) {
+        let f = texture_footprint(&d.textures[t as usize], uv);
+        let (fx, fy) = (f.fx, f.fy);
+        for (texel, wgt) in f.texel.iter().zip([(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy]) {
+            add3(grad, Some(o + 3 * *texel as usize), d_albedo * wgt);
+        }
+    }
+    // The primal clamps roughness to [0, 1]; a clamped lookup does not move.
+    let tex = d.materials[m].roughness_tex;
+    for &(t, texel, o) in l.rough_texels.iter().filter(|e| e.0 == tex) {
+        let tg = &d.textures[t as usize];
+        if (0.0..=1.0).contains(&crate::render::texture::texture_sample(&d.texels, tg, uv, 0)) {
+            grad[o] += (d_rough * bilinear_weight(tg, uv, texel)) as f64;
+        }
     }
 }
 
