@@ -3,6 +3,7 @@
 
 mod cpu_backend;
 mod vk_adjoint;
+mod vk_aov;
 mod vk_backend;
 
 pub use cpu_backend::CpuBackend;
@@ -11,8 +12,9 @@ pub use vk_backend::{layout_check_spirv, VkBackend, SHADER_DIR_ENV};
 
 use crate::error::{Error, Result};
 use crate::grad::GradLayout;
+use crate::grad::{AovAdjoints, PoseLayout};
 use crate::render::{Frame, SceneData};
-use crate::scene::RenderSettings;
+use crate::scene::{RenderSettings, Scene};
 
 /// Progress callback: (units done, units total).
 pub type Progress<'a> = &'a (dyn Fn(usize, usize) + Sync);
@@ -32,6 +34,20 @@ pub trait Backend {
         adjoint: &[f32],
     ) -> Result<Vec<f64>> {
         crate::grad::radiance_vjp(data, settings, layout, adjoint)
+    }
+    /// dLoss/dθ of the pose entries of `pose` given the adjoints of depth and masks (`grad::aovs_vjp`: the depth
+    /// interior and the silhouette boundary with `edge_samples` samples). A device computes what its kernels
+    /// cover and leaves the rest to the CPU reference.
+    fn aovs_vjp(
+        &mut self,
+        scene: &Scene,
+        data: &SceneData,
+        settings: &RenderSettings,
+        pose: &PoseLayout,
+        adjoints: &AovAdjoints,
+        edge_samples: u32,
+    ) -> Result<Vec<f64>> {
+        crate::grad::aovs_vjp(scene, data, settings, pose, adjoints, edge_samples)
     }
 }
 

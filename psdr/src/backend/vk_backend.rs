@@ -20,6 +20,8 @@ pub struct VkBackend {
     path_trace: Kernel<FrameParams>,
     /// The adjoint pass of material and light parameters (shaders/grad/interior/material_light.comp).
     pub(super) material_light_vjp: Kernel<super::vk_adjoint::AdjointParams>,
+    /// The adjoint pass of depth and masks for poses (shaders/grad/vjp/aov.comp).
+    pub(super) aov_vjp: Kernel<super::vk_aov::AovParams>,
     pub(super) pass_path_samples: u64,
 }
 
@@ -60,7 +62,9 @@ impl VkBackend {
             psdr_vk::include_spirv!("grad/interior/material_light"),
         )?;
         let material_light_vjp = Kernel::new(&ctx, "material_light_vjp", &words, 13).map_err(backend_error)?;
-        Ok(VkBackend { ctx, path_trace, material_light_vjp, pass_path_samples: PASS_PATH_SAMPLES })
+        let words = kernel_words(shader_dir, "grad/vjp/aov", psdr_vk::include_spirv!("grad/vjp/aov"))?;
+        let aov_vjp = Kernel::new(&ctx, "aov_vjp", &words, 16).map_err(backend_error)?;
+        Ok(VkBackend { ctx, path_trace, material_light_vjp, aov_vjp, pass_path_samples: PASS_PATH_SAMPLES })
     }
 
     /// Path samples per submitted pass (at least one sample of every pixel per pass).
@@ -83,8 +87,8 @@ pub(super) fn upload<T: bytemuck::Pod>(ctx: &Context, name: &str, data: &[T]) ->
 }
 
 impl Backend for VkBackend {
-    /// On the device where the adjoint kernels cover the layout (light radiances, albedo, roughness and specular
-    /// constants), else the CPU reference (texels, uv transforms and procedural graphs are not ported yet).
+    /// On the device where the adjoint kernel covers the layout (`GradLayout::device_slots`: everything but
+    /// normal maps), else the CPU reference.
     fn radiance_vjp(
         &mut self,
         data: &SceneData,
@@ -95,6 +99,22 @@ impl Backend for VkBackend {
         match self.radiance_vjp_on_device(data, settings, layout, adjoint)? {
             Some(g) => Ok(g),
             None => crate::grad::radiance_vjp(data, settings, layout, adjoint),
+        }
+    }
+
+    /// On the device for pose components, else (vertices) the CPU reference.
+    fn aovs_vjp(
+        &mut self,
+        scene: &crate::scene::Scene,
+        data: &SceneData,
+        settings: &RenderSettings,
+        pose: &crate::grad::PoseLayout,
+        adjoints: &crate::grad::AovAdjoints,
+        edge_samples: u32,
+    ) -> Result<Vec<f64>> {
+        match self.aovs_vjp_on_device(scene, data, settings, pose, adjoints, edge_samples)? {
+            Some(g) => Ok(g),
+            None => crate::grad::aovs_vjp(scene, data, settings, pose, adjoints, edge_samples),
         }
     }
 

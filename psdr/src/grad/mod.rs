@@ -8,7 +8,7 @@
 //! | radiance | poses, vertices | primary boundary: silhouettes seen by the camera | `primary_boundary` (boundary/primary.rs) |
 //! | radiance | poses, vertices | secondary boundary: direct (shadows) and indirect | `secondary_boundary` (boundary/secondary.rs; candidate edges from boundary/edge_tree.rs over boundary/mesh_edges.rs) |
 //! | radiance | poses, vertices | horizon boundary: a vertex's own tangent plane | `horizon_boundary` (boundary/horizon.rs) |
-//! | depth, masks | poses, vertices | interior (depth only) + primary boundary | `aov_vjp`, `aovs_vjp` (vjp/aov.rs) |
+//! | depth, masks | poses, vertices | interior (depth only) + primary boundary | `aov_vjp`, `aovs_vjp` (vjp/aov.rs; on Vulkan for poses: shaders/grad/vjp/aov.comp) |
 //! | depth, masks | materials, lights | none (zero) | |
 //! | a loss of any outputs | any | all of the above | `outputs_vjp` (vjp/outputs.rs) |
 //!
@@ -18,11 +18,11 @@
 //! path recorder and the velocity fields of geometric parameters (path/).
 
 mod ad;
-mod boundary;
+pub(crate) mod boundary;
 mod estimate;
 pub(crate) mod interior;
 mod path;
-mod vjp;
+pub(crate) mod vjp;
 
 pub use crate::scene::{ParamPath, TextureSlot};
 pub use ad::bsdf_grad::{bsdf_eval_grad, BsdfGrad};

@@ -41,7 +41,8 @@ impl ImageEdge {
 /// The edge distribution: silhouette edges of the given objects and the CDF of their projected lengths.
 pub struct PrimaryEdges {
     pub edges: Vec<ImageEdge>,
-    cdf: Vec<f32>,
+    /// Running sums of the edges' projected lengths (pixels).
+    pub cdf: Vec<f32>,
     /// Total projected length in pixels.
     pub total_length: f32,
 }
@@ -168,7 +169,7 @@ fn point_on_edge(cam: &CameraGpu, e: &ImageEdge, y: [f32; 2]) -> Option<Vec3> {
 /// coordinates (~1e-5 at 512 px).
 pub const SIDE_EPS: f32 = 1e-3;
 /// Seed tweak separating edge samples from pixel samples.
-const EDGE_SEED: u32 = 0x6a09_e667;
+pub const EDGE_SEED: u32 = 0x6a09_e667;
 
 /// dLoss/d(output) per pixel, `channels` (1 or 3) values per pixel.
 #[derive(Clone, Copy)]
@@ -224,34 +225,52 @@ where
     if edges.edges.is_empty() || edge_samples == 0 {
         return vec![0.0; pose.len];
     }
-    let (w, h) = (d.camera.width as f32, d.camera.height as f32);
     accumulate_blocks(edge_samples as usize, pose.len, |samples, g| {
         let mut moving = vec![];
         for k in samples.map(|k| k as u32) {
-            let s = Sampler { seed: seed ^ EDGE_SEED, pixel: k, sample: 0 };
-            let Some(es) = edges.sample(&d.camera, s.get(0), s.get(1)) else { continue };
-            let [x, y] = es.y;
-            if !(x >= 0.0 && y >= 0.0 && x < w && y < h) {
-                continue;
-            }
-            let pixel = (y as u32 * d.camera.width + x as u32) as usize;
-            let jump = weighted_jump(pixel, es.y, es.n, &s);
-            if jump == 0.0 {
-                continue;
-            }
-            let [nx, ny] = es.n;
-            let edge = &edges.edges[es.edge];
-            let weight = jump / (es.pdf * edge_samples as f32);
-            let site = edge.site(es.x);
-            moving.clear();
-            pose.entries_moving(edge.object, &edge.ends, &mut moving);
-            for &e in &moving {
-                let (o, comp, at) = pose.entries[e];
-                let v = project_velocity(&d.camera, es.x, pose.velocity(o, comp, es.x, &site));
-                g[at] += (weight * (v[0] * nx + v[1] * ny)) as f64;
-            }
+            primary_boundary_sample(d, seed, pose, edges, edge_samples, k, &weighted_jump, &mut moving, g);
         }
     })
+}
+
+/// Edge sample `k` of `primary_boundary_weighted`, added to `g` (`moving` is scratch space).
+#[allow(clippy::too_many_arguments)]
+pub fn primary_boundary_sample<F>(
+    d: &SceneData,
+    seed: u32,
+    pose: &PoseLayout,
+    edges: &PrimaryEdges,
+    edge_samples: u32,
+    k: u32,
+    weighted_jump: &F,
+    moving: &mut Vec<usize>,
+    g: &mut [f64],
+) where
+    F: Fn(usize, [f32; 2], [f32; 2], &Sampler) -> f32,
+{
+    let (w, h) = (d.camera.width as f32, d.camera.height as f32);
+    let s = Sampler { seed: seed ^ EDGE_SEED, pixel: k, sample: 0 };
+    let Some(es) = edges.sample(&d.camera, s.get(0), s.get(1)) else { return };
+    let [x, y] = es.y;
+    if !(x >= 0.0 && y >= 0.0 && x < w && y < h) {
+        return;
+    }
+    let pixel = (y as u32 * d.camera.width + x as u32) as usize;
+    let jump = weighted_jump(pixel, es.y, es.n, &s);
+    if jump == 0.0 {
+        return;
+    }
+    let [nx, ny] = es.n;
+    let edge = &edges.edges[es.edge];
+    let weight = jump / (es.pdf * edge_samples as f32);
+    let site = edge.site(es.x);
+    moving.clear();
+    pose.entries_moving(edge.object, &edge.ends, moving);
+    for &e in moving.iter() {
+        let (o, comp, at) = pose.entries[e];
+        let v = project_velocity(&d.camera, es.x, pose.velocity(o, comp, es.x, &site));
+        g[at] += (weight * (v[0] * nx + v[1] * ny)) as f64;
+    }
 }
 
 #[cfg(test)]

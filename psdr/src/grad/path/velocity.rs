@@ -29,6 +29,22 @@ pub enum PoseComponent {
 /// on a triangle, (1 − t, t) on an edge, one weight at a vertex). Only vertex components look at it.
 pub type Site<'a> = &'a [(u32, f32)];
 
+/// An affine velocity field u(x) = a + G (x − t), the field of every pose component but a vertex's (the GPU
+/// kernels read these: shaders/grad/path/velocity.glsl).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AffineVelocity {
+    pub a: Vec3,
+    pub g: Mat3,
+    pub t: Vec3,
+}
+
+impl AffineVelocity {
+    pub fn at(&self, x: Vec3) -> Vec3 {
+        let r = x - self.t;
+        self.a + (self.g.x_axis * r.x + self.g.y_axis * r.y + self.g.z_axis * r.z)
+    }
+}
+
 /// The pose components a set of parameter paths asks for, with their offsets in the gradient vector.
 #[derive(Clone, Debug)]
 pub struct PoseLayout {
@@ -194,6 +210,24 @@ impl PoseLayout {
         -gt_n + n * n.dot(gt_n)
     }
 
+    /// The velocity field of a pose component (`None` for a vertex's, which depends on the site): translation
+    /// moves every point by e_a; yaw, rotation and scale move x by G (x − T) with G the constant Jacobian of
+    /// `velocity_gradient` (the same field as `velocity`, written for kernels that cannot branch on the
+    /// component cheaply).
+    pub fn affine_velocity(&self, object: u32, c: PoseComponent) -> Option<AffineVelocity> {
+        let t = self.translation[object as usize];
+        match c {
+            PoseComponent::Vertex { .. } => None,
+            PoseComponent::Translation(a) => Some(AffineVelocity { a: Vec3::AXES[a], g: Mat3::ZERO, t }),
+            _ => Some(AffineVelocity { a: Vec3::ZERO, g: self.velocity_gradient(object, c), t }),
+        }
+    }
+
+    /// True when some entry is a vertex component (whose field is not affine).
+    pub fn has_vertices(&self) -> bool {
+        self.vertex_base.iter().any(Option::is_some)
+    }
+
     /// ∂x/∂θ of the world-space point `x` of `object`, lying at `site` on its mesh, for one component.
     pub fn velocity(&self, object: u32, c: PoseComponent, x: Vec3, site: Site) -> Vec3 {
         let o = object as usize;
@@ -288,6 +322,9 @@ mod tests {
                 let (u, dn) = (layout.velocity(o, c, x, &[]), layout.normal_velocity(o, c, normal(&scene)));
                 assert!((u - fd_x).length() < 2e-3 * (1.0 + fd_x.length()), "{path}[{k}]: {u} vs FD {fd_x}");
                 assert!((dn - fd_n).length() < 2e-3 * (1.0 + fd_n.length()), "{path}[{k}] normal: {dn} vs FD {fd_n}");
+                // The affine form the GPU kernels use is the same field (to f32 rounding).
+                let affine = layout.affine_velocity(o, c).expect("pose components are affine").at(x);
+                assert!((affine - u).length() <= 1e-6 * (1.0 + u.length()), "{path}[{k}]: affine {affine} vs {u}");
             }
         }
     }

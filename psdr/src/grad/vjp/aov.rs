@@ -71,6 +71,25 @@ pub fn aovs_vjp(
     adjoints: &AovAdjoints,
     edge_samples: u32,
 ) -> Result<Vec<f64>> {
+    let of_object = masks_by_object(scene, d, adjoints)?;
+    if adjoints.depth.is_none() && adjoints.masks.is_empty() {
+        return Ok(vec![0.0; pose.len]);
+    }
+    let mut grad = boundary(scene, d, settings, pose, adjoints.depth, &of_object, edge_samples);
+    if let Some(a) = adjoints.depth {
+        let interior = depth_interior(d, settings, pose, a);
+        grad.iter_mut().zip(interior).for_each(|(g, r)| *g += r);
+    }
+    Ok(grad)
+}
+
+/// Each object's mask adjoint (`None` for the masks the loss does not read), once the depth's and every mask's
+/// adjoint are checked to cover the image and no object is given twice.
+pub(crate) fn masks_by_object<'a>(
+    scene: &Scene,
+    d: &SceneData,
+    adjoints: &AovAdjoints<'a>,
+) -> Result<Vec<Option<&'a [f32]>>> {
     let (w, h) = (d.camera.width as usize, d.camera.height as usize);
     if let Some(a) = adjoints.depth {
         check_adjoint(a, w * h)?;
@@ -86,15 +105,7 @@ pub fn aovs_vjp(
         check_adjoint(a, w * h)?;
         of_object[o] = Some(a);
     }
-    if adjoints.depth.is_none() && adjoints.masks.is_empty() {
-        return Ok(vec![0.0; pose.len]);
-    }
-    let mut grad = boundary(scene, d, settings, pose, adjoints.depth, &of_object, edge_samples);
-    if let Some(a) = adjoints.depth {
-        let interior = depth_interior(d, settings, pose, a);
-        grad.iter_mut().zip(interior).for_each(|(g, r)| *g += r);
-    }
-    Ok(grad)
+    Ok(of_object)
 }
 
 /// Interior term of depth.

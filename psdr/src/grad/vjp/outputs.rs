@@ -4,7 +4,7 @@
 use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::grad::path::velocity::PoseLayout;
-use crate::grad::vjp::aov::{aovs_vjp, AovAdjoints};
+use crate::grad::vjp::aov::AovAdjoints;
 use crate::grad::vjp::radiance_pose::{radiance_pose_vjp, BoundarySamples};
 use crate::grad::{GradLayout, ParamPath};
 use crate::render::SceneData;
@@ -41,9 +41,9 @@ pub fn moves_geometry(p: &ParamPath) -> bool {
 /// dLoss/dθ of `params` (in their order, each parameter's floats in a row) given the adjoints of every output
 /// the loss read. `settings.seed` should differ from the seed of the primal render the adjoints came from (an
 /// L2 loss's adjoint times the derivative is biased when both use the same paths).
-/// Radiance: interior term of materials and lights (on `backend`'s device where its kernels cover them), interior + primary + secondary boundary of poses and
-/// vertices. Depth and masks: poses and vertices (interior + silhouettes); their derivatives w.r.t. materials
-/// and lights are zero.
+/// Radiance: interior term of materials and lights (on `backend`'s device where its kernels cover them),
+/// interior + primary + secondary boundary of poses and vertices. Depth and masks: poses and vertices (interior
+/// + silhouettes, on the device for poses); their derivatives w.r.t. materials and lights are zero.
 pub fn outputs_vjp(
     scene: &Scene,
     data: &SceneData,
@@ -69,7 +69,7 @@ pub fn outputs_vjp(
     if pose.len > 0 && (adjoints.depth.is_some() || !adjoints.masks.is_empty()) {
         let masks: Vec<(usize, &[f32])> = adjoints.masks.iter().map(|(o, a)| (*o, a.as_slice())).collect();
         let aov = AovAdjoints { depth: adjoints.depth.as_deref(), masks: &masks };
-        let g = aovs_vjp(scene, data, settings, &pose, &aov, boundary.primary)?;
+        let g = backend.aovs_vjp(scene, data, settings, &pose, &aov, boundary.primary)?;
         g_pose.iter_mut().zip(g).for_each(|(a, b)| *a += b);
     }
     in_param_order(scene, params, g_material, g_pose)
