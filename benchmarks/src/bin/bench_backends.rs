@@ -1,12 +1,13 @@
 //! CPU backend against the Vulkan backend (whatever device psdr-vk picks: lavapipe here, a GPU where one exists)
-//! on the same scenes and seeds, for the primal render and for the adjoint pass of light radiances and albedo,
-//! roughness and specular constants (`Backend::radiance_vjp`, a random adjoint image): seconds per pass (best of 3 after a warm-up),
-//! Mpaths/s (pixels x spp per second) and Mrays/s for the primal, plus the backends' agreement (the images'
-//! mean, the gradients' worst component), written to benchmarks/results/backends.csv and backends.svg.
+//! on the same scenes and seeds: the primal render; the adjoint pass of light radiances and albedo, roughness
+//! and specular constants (`Backend::radiance_vjp`, a random adjoint image); and the depth-and-mask adjoint of
+//! poses (`Backend::aovs_vjp`). Seconds per pass (best of 3 after a warm-up), Mpaths/s (pixels x spp per
+//! second; for the AOV adjoint camera rays per second), Mrays/s for the primal, plus the backends' agreement
+//! (the images' mean, the gradients' worst component), written to benchmarks/results/backends.csv and .svg.
 //! `cargo run -p psdr-benchmarks --release --bin bench_backends [-- OUT.csv]`
 
 use psdr::backend::{Backend, CpuBackend, VkBackend};
-use psdr::grad::{GradLayout, ParamPath};
+use psdr::grad::{AovAdjoints, GradLayout, ParamPath, PoseLayout};
 use psdr::render::{Frame, SceneData};
 use psdr::scene::{load_scene, sphere_mesh, Object, Pose, Scene};
 use psdr::scene::{Color, Scalar};
@@ -84,6 +85,42 @@ struct Args {
     out: std::path::PathBuf,
 }
 
+/// Edge samples of the AOV adjoint's silhouette term (the optimiser's default).
+const AOV_EDGE_SAMPLES: u32 = 1 << 14;
+
+/// Seconds of the depth-and-mask adjoint (`Backend::aovs_vjp`, best of `reps` after a warm-up) and its
+/// gradient: every pose component of the table, the chair and the vase, a random depth adjoint and random
+/// adjoints of the table's and chair's masks, both terms (depth interior, silhouettes).
+fn aov_adjoint_best_of(
+    backend: &mut dyn Backend,
+    d: &SceneData,
+    s: &Scene,
+    reps: usize,
+) -> anyhow::Result<(f64, Vec<f64>)> {
+    let mut params = vec![];
+    for o in ["table", "chair", "vase"] {
+        for c in ["translation", "yaw", "rotation", "scale"] {
+            params.push(format!("object/{o}/{c}").parse::<ParamPath>()?);
+        }
+    }
+    let pose = PoseLayout::new(s, &params)?;
+    let n = (s.camera.width * s.camera.height) as usize;
+    let image =
+        |k: usize| -> Vec<f32> { (0..n).map(|i| ((i * 7919 + k * 104729) % 1000) as f32 / 1000.0 - 0.3).collect() };
+    let (depth, mask_t, mask_c) = (image(0), image(1), image(2));
+    let (table, chair) = (s.object_index("table").unwrap_or(0), s.object_index("chair").unwrap_or(0));
+    let masks = [(table, mask_t.as_slice()), (chair, mask_c.as_slice())];
+    let adjoints = AovAdjoints { depth: Some(&depth), masks: &masks };
+    let mut grad = backend.aovs_vjp(s, d, &s.settings, &pose, &adjoints, AOV_EDGE_SAMPLES)?; // warm-up
+    let mut best = f64::INFINITY;
+    for _ in 0..reps {
+        let t = Instant::now();
+        grad = backend.aovs_vjp(s, d, &s.settings, &pose, &adjoints, AOV_EDGE_SAMPLES)?;
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    Ok((best, grad))
+}
+
 fn main() -> anyhow::Result<()> {
     let out = <Args as clap::Parser>::parse().out;
     let mut vk = VkBackend::new(None)?;
@@ -133,6 +170,23 @@ fn main() -> anyhow::Result<()> {
             );
             bars.push((format!("adjoint {name} {w}x{h}"), backend, mpaths));
         }
+        // Depth and masks for poses: camera rays per second (pixel samples plus two per edge sample).
+        let (t_cpu, g_cpu) = aov_adjoint_best_of(&mut cpu, &d, &s, 3)?;
+        let (t_vk, g_vk) = aov_adjoint_best_of(&mut vk, &d, &s, 3)?;
+        let scale = g_cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
+        let rel = g_cpu.iter().zip(&g_vk).map(|(a, b)| (a - b).abs() / (a.abs() + 1e-6 * scale)).fold(0.0, f64::max);
+        let rays = paths + 2.0 * f64::from(AOV_EDGE_SAMPLES);
+        for (backend, t, device) in [("cpu", t_cpu, cpu.name()), ("vk", t_vk, vk.name())] {
+            let mpaths = rays / t / 1e6;
+            println!(
+                "{name:<16} {w}x{h} {spp:>3} spp  aov_adj {backend:<3} {t:8.3} s  {mpaths:7.3} Mrays/s  ({device})"
+            );
+            let load = load_average();
+            csv += &format!(
+                "{name},{w},{h},{spp},{tris},aov_adjoint,{backend},\"{device}\",{t:.4},{mpaths:.3},,{rel:.2e},{load}\n"
+            );
+            bars.push((format!("aov adjoint {name} {w}x{h}"), backend, mpaths));
+        }
     }
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir)?;
@@ -167,7 +221,7 @@ fn chart(bars: &[(String, &str, f64)], vk: &str, cpu: &str) -> String {
         }
     }
     psdr::report::chart::BarChart {
-        title: "Mpaths/s of the primal render and the adjoint pass, same scenes and seeds (higher is better)".into(),
+        title: "Mpaths/s of the primal render and the adjoint passes (AOV adjoint: camera rays/s), same scenes and seeds (higher is better)".into(),
         unit: "Mpaths/s".into(),
         series: vec![format!("cpu: {cpu}"), format!("vk: {vk}")],
         rows,
