@@ -5,6 +5,9 @@ mod cpu_backend;
 mod vk_adjoint;
 mod vk_aov;
 mod vk_backend;
+mod vk_primary;
+mod vk_radiance_pose;
+mod vk_rows;
 
 pub use cpu_backend::CpuBackend;
 pub use vk_adjoint::{AdjointParams, MAX_RECORD_DEPTH};
@@ -48,6 +51,20 @@ pub trait Backend {
         edge_samples: u32,
     ) -> Result<Vec<f64>> {
         crate::grad::aovs_vjp(scene, data, settings, pose, adjoints, edge_samples)
+    }
+    /// The primary boundary term of radiance for the pose entries of `pose` given dLoss/d(radiance)
+    /// (`grad::radiance_primary_boundary`, `edge_samples` silhouette and crease samples). A device computes
+    /// what its kernels cover and leaves the rest to the CPU reference.
+    fn radiance_primary_boundary(
+        &mut self,
+        scene: &Scene,
+        data: &SceneData,
+        settings: &RenderSettings,
+        pose: &PoseLayout,
+        adjoint: &[f32],
+        edge_samples: u32,
+    ) -> Result<Vec<f64>> {
+        Ok(crate::grad::radiance_primary_boundary(scene, data, settings, pose, adjoint, edge_samples))
     }
 }
 

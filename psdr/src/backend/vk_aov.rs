@@ -2,11 +2,12 @@
 //! (shaders/grad/vjp/aov.comp, the GLSL twin of `grad::aovs_vjp`): the depth's interior term, one invocation per
 //! pixel, and the silhouette boundary term, one invocation per edge sample. The silhouette edges and the CDF of
 //! their projected lengths are built here (`PrimaryEdges::build`, as the CPU does) and sampled on the device.
-//! Each invocation writes its own row of gradients; the rows are summed here in pixel and sample order (f64),
-//! so the result does not depend on scheduling or on the pass size. Vertex parameters (whose velocity depends on
+//! Each invocation writes its own row of gradients, summed in order (`vk_rows`). Vertex parameters (whose velocity depends on
 //! where on the mesh a point lies) stay on the CPU.
 
-use super::vk_backend::{backend_error, upload, upload_scene, VkBackend};
+use super::vk_backend::{upload, upload_scene, VkBackend};
+use super::vk_primary::{edge_words, pose_words};
+use super::vk_rows::rows_in_order;
 use crate::error::Result;
 use crate::grad::boundary::primary::PrimaryEdges;
 use crate::grad::vjp::aov::masks_by_object;
@@ -15,7 +16,7 @@ use crate::render::layout::NONE;
 use crate::render::SceneData;
 use crate::scene::{RenderSettings, Scene};
 use bytemuck::{Pod, Zeroable};
-use psdr_vk::{Buffer, Groups, StorageBinding};
+use psdr_vk::StorageBinding;
 
 /// Push constants of the AOV kernel (its `Push` block).
 #[repr(C)]
@@ -38,36 +39,6 @@ pub struct AovParams {
 
 const DEPTH_INTERIOR: u32 = 0;
 const SILHOUETTES: u32 = 1;
-
-/// Largest gradient-rows buffer of one pass, bytes.
-const MAX_ROWS_BYTES: u64 = 64 << 20;
-
-/// Pose entries as the kernel reads them (POSE_WORDS each): object, offset, then the affine field's a, G's
-/// columns and t as float bits. `None` when some entry is not affine (a vertex).
-fn pose_words(pose: &PoseLayout) -> Option<Vec<u32>> {
-    let mut words = Vec::with_capacity(pose.entries.len() * 17);
-    for &(o, c, at) in &pose.entries {
-        let f = pose.affine_velocity(o, c)?;
-        words.extend([o, at as u32]);
-        for v in [f.a, f.g.x_axis, f.g.y_axis, f.g.z_axis, f.t] {
-            words.extend(v.to_array().map(f32::to_bits));
-        }
-    }
-    Some(words)
-}
-
-/// Silhouette edges as the kernel reads them (EDGE_WORDS each): a, object, b, unused, pa, pb.
-fn edge_words(edges: &PrimaryEdges) -> Vec<u32> {
-    let mut words = Vec::with_capacity(edges.edges.len() * 12);
-    for e in &edges.edges {
-        words.extend(e.a.to_array().map(f32::to_bits));
-        words.push(e.object);
-        words.extend(e.b.to_array().map(f32::to_bits));
-        words.push(0);
-        words.extend([e.pa[0], e.pa[1], e.pb[0], e.pb[1]].map(f32::to_bits));
-    }
-    words
-}
 
 impl VkBackend {
     /// `grad::aovs_vjp` on the device, when every pose entry is a pose component (translation, yaw, rotation,
@@ -107,7 +78,6 @@ impl VkBackend {
             Box::new(upload(ctx, "mask_adjoints", &mask_images)?) as Box<dyn StorageBinding>,
             Box::new(upload(ctx, "mask_of_object", &mask_index)?) as Box<dyn StorageBinding>,
         ];
-        let per_pass_rows = (MAX_ROWS_BYTES / (len as u64 * 4)).max(1);
         let params = AovParams {
             seed: settings.seed,
             spp: settings.spp,
@@ -119,14 +89,17 @@ impl VkBackend {
             has_depth: u32::from(adjoints.depth.is_some()),
             ..Default::default()
         };
-        // The CPU adds the depth interior to the boundary term; so does this, pass by pass in order.
+        let inputs: Vec<&dyn StorageBinding> = scene_bufs.iter().chain(&bufs).map(|b| b.as_ref()).collect();
+        let pass = |mode: u32| move |begin, count| AovParams { mode, begin, count, ..params };
+        // The CPU adds the depth interior to the boundary term; so does this.
         let mut boundary = vec![0.0f64; len];
         if !edges.edges.is_empty() && edge_samples > 0 {
-            let per_pass = per_pass_rows.min(self.pass_path_samples).max(1) as usize;
-            self.rows_in_order(
-                &scene_bufs,
-                &bufs,
-                AovParams { mode: SILHOUETTES, ..params },
+            let per_pass = self.pass_path_samples as usize;
+            rows_in_order(
+                ctx,
+                &self.aov_vjp,
+                &inputs,
+                pass(SILHOUETTES),
                 edge_samples as usize,
                 per_pass,
                 &mut boundary,
@@ -134,45 +107,9 @@ impl VkBackend {
         }
         let mut interior = vec![0.0f64; len];
         if adjoints.depth.is_some() {
-            let by_paths = (self.pass_path_samples / u64::from(settings.spp.max(1))).max(1);
-            let per_pass = per_pass_rows.min(by_paths) as usize;
-            self.rows_in_order(
-                &scene_bufs,
-                &bufs,
-                AovParams { mode: DEPTH_INTERIOR, ..params },
-                pixels,
-                per_pass,
-                &mut interior,
-            )?;
+            let per_pass = (self.pass_path_samples / u64::from(settings.spp.max(1))).max(1) as usize;
+            rows_in_order(ctx, &self.aov_vjp, &inputs, pass(DEPTH_INTERIOR), pixels, per_pass, &mut interior)?;
         }
         Ok(Some(boundary.iter().zip(&interior).map(|(b, i)| b + i).collect()))
-    }
-
-    /// Runs the AOV kernel over invocations 0..n in passes of `per_pass`, adding every row into `out` in order.
-    fn rows_in_order(
-        &mut self,
-        scene_bufs: &[Box<dyn StorageBinding>],
-        bufs: &[Box<dyn StorageBinding>],
-        params: AovParams,
-        n: usize,
-        per_pass: usize,
-        out: &mut [f64],
-    ) -> Result<()> {
-        let len = out.len();
-        let rows = Buffer::<f32>::zeroed(&self.ctx, "aov_grad_rows", per_pass.min(n) * len).map_err(backend_error)?;
-        let mut begin = 0;
-        while begin < n {
-            let count = per_pass.min(n - begin);
-            let push = AovParams { begin: begin as u32, count: count as u32, ..params };
-            let bindings: Vec<&dyn StorageBinding> =
-                scene_bufs.iter().chain(bufs).map(|b| b.as_ref()).chain([&rows as &dyn StorageBinding]).collect();
-            self.aov_vjp.dispatch(&bindings, &push, Groups::folded_2d(count as u64, 64)).map_err(backend_error)?;
-            let values = rows.download_range(0, count * len).map_err(backend_error)?;
-            for row in values.chunks_exact(len) {
-                out.iter_mut().zip(row).for_each(|(g, &v)| *g += v as f64);
-            }
-            begin += count;
-        }
-        Ok(())
     }
 }

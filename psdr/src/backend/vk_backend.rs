@@ -22,6 +22,8 @@ pub struct VkBackend {
     pub(super) material_light_vjp: Kernel<super::vk_adjoint::AdjointParams>,
     /// The adjoint pass of depth and masks for poses (shaders/grad/vjp/aov.comp).
     pub(super) aov_vjp: Kernel<super::vk_aov::AovParams>,
+    /// The primary boundary of radiance for poses (shaders/grad/vjp/radiance_pose.comp).
+    pub(super) radiance_primary_vjp: Kernel<super::vk_radiance_pose::RadiancePrimaryParams>,
     pub(super) pass_path_samples: u64,
 }
 
@@ -64,7 +66,17 @@ impl VkBackend {
         let material_light_vjp = Kernel::new(&ctx, "material_light_vjp", &words, 13).map_err(backend_error)?;
         let words = kernel_words(shader_dir, "grad/vjp/aov", psdr_vk::include_spirv!("grad/vjp/aov"))?;
         let aov_vjp = Kernel::new(&ctx, "aov_vjp", &words, 16).map_err(backend_error)?;
-        Ok(VkBackend { ctx, path_trace, material_light_vjp, aov_vjp, pass_path_samples: PASS_PATH_SAMPLES })
+        let words =
+            kernel_words(shader_dir, "grad/vjp/radiance_pose", psdr_vk::include_spirv!("grad/vjp/radiance_pose"))?;
+        let radiance_primary_vjp = Kernel::new(&ctx, "radiance_primary_vjp", &words, 14).map_err(backend_error)?;
+        Ok(VkBackend {
+            ctx,
+            path_trace,
+            material_light_vjp,
+            aov_vjp,
+            radiance_primary_vjp,
+            pass_path_samples: PASS_PATH_SAMPLES,
+        })
     }
 
     /// Path samples per submitted pass (at least one sample of every pixel per pass).
@@ -115,6 +127,22 @@ impl Backend for VkBackend {
         match self.aovs_vjp_on_device(scene, data, settings, pose, adjoints, edge_samples)? {
             Some(g) => Ok(g),
             None => crate::grad::aovs_vjp(scene, data, settings, pose, adjoints, edge_samples),
+        }
+    }
+
+    /// On the device for pose components, else (vertices) the CPU reference.
+    fn radiance_primary_boundary(
+        &mut self,
+        scene: &crate::scene::Scene,
+        data: &SceneData,
+        settings: &RenderSettings,
+        pose: &crate::grad::PoseLayout,
+        adjoint: &[f32],
+        edge_samples: u32,
+    ) -> Result<Vec<f64>> {
+        match self.radiance_primary_on_device(scene, data, settings, pose, adjoint, edge_samples)? {
+            Some(g) => Ok(g),
+            None => Ok(crate::grad::radiance_primary_boundary(scene, data, settings, pose, adjoint, edge_samples)),
         }
     }
 

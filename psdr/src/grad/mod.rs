@@ -5,7 +5,7 @@
 //! |---|---|---|---|
 //! | radiance | lights; material constants, texels, uv transform; procedural graphs and tints | interior: reverse-mode replay of recorded paths | `radiance_vjp` (interior/material_light.rs); for an L2 loss the fused estimator `radiance_vjp_cross` (interior/fused_l2.rs) |
 //! | radiance | object poses, mesh vertices | interior: ray-form replay in dual numbers | `replay_radiance` (interior/geometry.rs; normal maps interior/normal_map.rs), called by `radiance_pose_vjp` (vjp/radiance_pose.rs) |
-//! | radiance | poses, vertices | primary boundary: silhouettes seen by the camera | `primary_boundary` (boundary/primary.rs) |
+//! | radiance | poses, vertices | primary boundary: silhouettes seen by the camera | `primary_boundary` (boundary/primary.rs), `radiance_primary_boundary` (vjp/radiance_pose.rs; on Vulkan for poses: shaders/grad/vjp/radiance_pose.comp) |
 //! | radiance | poses, vertices | secondary boundary: direct (shadows) and indirect | `secondary_boundary` (boundary/secondary.rs; candidate edges from boundary/edge_tree.rs over boundary/mesh_edges.rs) |
 //! | radiance | poses, vertices | horizon boundary: a vertex's own tangent plane | `horizon_boundary` (boundary/horizon.rs) |
 //! | depth, masks | poses, vertices | interior (depth only) + primary boundary | `aov_vjp`, `aovs_vjp` (vjp/aov.rs; on Vulkan for poses: shaders/grad/vjp/aov.comp) |
@@ -35,7 +35,7 @@ pub use interior::material_light::{radiance_vjp, DeviceSlots, GradLayout};
 pub use path::velocity::{PoseComponent, PoseLayout};
 pub use vjp::aov::{aov_vjp, aovs_vjp, AovAdjoints};
 pub use vjp::outputs::{in_param_order, moves_geometry, outputs_vjp, OutputAdjoints};
-pub use vjp::radiance_pose::{radiance_pose_vjp, BoundarySamples};
+pub use vjp::radiance_pose::{radiance_pose_vjp, radiance_primary_boundary, BoundarySamples};
 
 /// Blocks a parallel gradient accumulation is split into: fixed (the sum's order, hence its rounding, never
 /// depends on the thread count) and few (each holds a full gradient vector, and vertex gradients of a large

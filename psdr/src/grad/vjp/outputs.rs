@@ -63,7 +63,7 @@ pub fn outputs_vjp(
             g_material = backend.radiance_vjp(data, settings, &material, radiance)?;
         }
         if pose.len > 0 {
-            g_pose = radiance_pose_vjp(scene, data, settings, &pose, radiance, boundary)?;
+            g_pose = radiance_pose_vjp(scene, data, settings, &pose, radiance, boundary, backend)?;
         }
     }
     if pose.len > 0 && (adjoints.depth.is_some() || !adjoints.masks.is_empty()) {

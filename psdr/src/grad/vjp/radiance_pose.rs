@@ -3,15 +3,17 @@
 //! by projected length and takes the radiance difference across them from two paths that share their random
 //! numbers (so the difference, not each side, carries the noise).
 
+use crate::backend::Backend;
 use crate::error::Result;
 use crate::grad::boundary::primary::{primary_boundary, PixelAdjoint, PrimaryEdges};
 use crate::grad::boundary::secondary::{secondary_boundary, SecondaryEdges, SecondaryPath};
 use crate::grad::interior::geometry::{entries_touching, replay_radiance, Tangent};
-use crate::grad::path::record::{record_from, record_path, PathRecord};
+use crate::grad::path::record::{record_path, PathRecord};
 use crate::grad::path::velocity::PoseLayout;
 use crate::grad::{accumulate_blocks, check_adjoint};
 use crate::render::camera::camera_ray;
 use crate::render::cpu::frame_params;
+use crate::render::path_trace::trace_from;
 use crate::render::sampler::Sampler;
 use crate::render::SceneData;
 use crate::scene::{RenderSettings, Scene};
@@ -33,6 +35,7 @@ pub fn radiance_pose_vjp(
     pose: &PoseLayout,
     adjoint: &[f32],
     samples: BoundarySamples,
+    backend: &mut dyn Backend,
 ) -> Result<Vec<f64>> {
     let (w, h) = (d.camera.width as usize, d.camera.height as usize);
     check_adjoint(adjoint, w * h * 3)?;
@@ -68,13 +71,14 @@ pub fn radiance_pose_vjp(
             }
         }
     });
-    let primary = radiance_primary_boundary(scene, d, settings, pose, adjoint, samples.primary);
+    let primary = backend.radiance_primary_boundary(scene, d, settings, pose, adjoint, samples.primary)?;
     grad.iter_mut().zip(primary).for_each(|(g, p)| *g += p);
     Ok(grad)
 }
 
-/// Primary boundary of radiance: silhouettes and creases, two paths per edge sample.
-fn radiance_primary_boundary(
+/// Primary boundary of radiance: silhouettes and creases, two paths per edge sample (the integrator's radiance
+/// along the camera ray through each side, sharing the sample's random numbers).
+pub fn radiance_primary_boundary(
     scene: &Scene,
     d: &SceneData,
     settings: &RenderSettings,
@@ -92,10 +96,6 @@ fn radiance_primary_boundary(
         &edges,
         PixelAdjoint { values: adjoint, channels: 3 },
         edge_samples,
-        |x, y, s| {
-            let mut rec = PathRecord::default();
-            record_from(d, &fp, s, origin, camera_ray(&d.camera, x, y), &mut rec);
-            rec.radiance()
-        },
+        |x, y, s| trace_from(d, &fp, s, origin, camera_ray(&d.camera, x, y), &mut ()).radiance,
     )
 }

@@ -1,7 +1,9 @@
-//! The Vulkan adjoint of the depth and mask AOVs with respect to poses (shaders/grad/vjp/aov.comp) against its
-//! CPU twin (`grad::aovs_vjp`): same scene, seed and adjoint images, each term separately (the depth's interior
-//! term alone, the silhouette boundary alone) and together, and the FD checks of tests/tests/grad_pose_aov.rs
-//! run on the device (renders and gradient both there).
+//! The Vulkan adjoints with respect to poses against their CPU twins, same scene, seed and adjoint images: the
+//! depth and mask AOVs (shaders/grad/vjp/aov.comp, `grad::aovs_vjp`), each term separately (the depth's interior
+//! term alone, the silhouette boundary alone) and together; the primary boundary of radiance
+//! (shaders/grad/vjp/radiance_pose.comp, `grad::radiance_primary_boundary`); and FD checks of
+//! tests/tests/grad_pose_aov.rs and grad_pose_radiance.rs run on the device (renders and gradient there, the
+//! radiance's interior and secondary terms on the CPU).
 //!
 //! Without a Vulkan device these tests print a note and pass, unless PSDR_REQUIRE_VULKAN=1 (CI sets it).
 //!
@@ -10,13 +12,17 @@
 //! velocity fields differ in rounding only (the device evaluates the affine form a + G (x − t), proven equal to
 //! the CPU's in velocity.rs's tests), and the device sums each row in f32. So every gradient component agrees
 //! within 1e-4 relative (+1e-6 of the largest component absolute). Measured on lavapipe (Mesa 22.3), 30
-//! components: depth interior 5.2e-6, silhouettes 2.8e-7, both 1.6e-7.
+//! components: depth interior 5.2e-6, silhouettes 2.8e-7, both 1.6e-7. The radiance boundary's two side paths
+//! per sample run the integrator on each backend; for direct light (max_depth 2) they agree but for the
+//! rounding of the BSDF-sampled direction, so the same bound holds.
 
 use psdr::backend::VkBackend;
-use psdr::grad::{aovs_vjp, AovAdjoints, ParamPath, PoseLayout};
+use psdr::grad::{aovs_vjp, radiance_primary_boundary, AovAdjoints, ParamPath, PoseLayout};
 use psdr::render::SceneData;
 use psdr::scene::Scene;
 use psdr_tests::SplitMix64;
+
+mod grad_common;
 
 fn vk() -> Option<VkBackend> {
     psdr_tests::vulkan_or_skip(|| VkBackend::new(None))
@@ -75,6 +81,52 @@ fn every_term_agrees_with_the_cpu() {
         assert!(worst <= 1e-4, "{name}:\ncpu {cpu:?}\ngpu {gpu:?}");
     }
     psdr_tests::assert_no_validation_errors(&vk);
+}
+
+#[test]
+fn radiance_primary_boundary_agrees_with_the_cpu() {
+    let Some(mut vk) = vk() else { return };
+    let (mut s, p) = room();
+    s.settings.max_depth = 2;
+    let d = SceneData::build(&s).unwrap();
+    let pose = PoseLayout::new(&s, &p).unwrap();
+    let adjoint = random_image(48 * 36 * 3, 5);
+    let cpu = radiance_primary_boundary(&s, &d, &s.settings, &pose, &adjoint, 1 << 13);
+    let gpu = vk.radiance_primary_on_device(&s, &d, &s.settings, &pose, &adjoint, 1 << 13).unwrap().unwrap();
+    let nonzero = cpu.iter().filter(|g| g.abs() > 0.0).count();
+    let worst = worst_relative(&cpu, &gpu);
+    eprintln!("radiance primary boundary: {nonzero} of {} nonzero, worst relative difference {worst:.2e}", cpu.len());
+    assert!(nonzero >= cpu.len() * 3 / 4, "the test exercises too little: {cpu:?}");
+    assert!(worst <= 1e-4, "cpu {cpu:?}\ngpu {gpu:?}");
+    // Pass-size independence.
+    vk.set_pass_path_samples(2 * 1000);
+    let split = vk.radiance_primary_on_device(&s, &d, &s.settings, &pose, &adjoint, 1 << 13).unwrap().unwrap();
+    assert_eq!(gpu, split);
+    psdr_tests::assert_no_validation_errors(&vk);
+}
+
+/// grad_pose_radiance.rs's box against a dark background on the Vulkan backend: the translation's gradient
+/// (primary boundary on the device, interior and secondary terms on the CPU) against central differences of
+/// device renders; the bound of grad_common (4 combined standard errors, 8 seeds here).
+#[test]
+fn radiance_finite_differences_on_the_device_agree_with_its_gradients() {
+    let Some(mut vk) = vk() else { return };
+    let s = grad_common::scenes::box_in_the_dark();
+    let p: ParamPath = "object/box/translation".parse().unwrap();
+    let loss = psdr::grad::ImageLoss::Mean(psdr::grad::Output::Radiance);
+    let opts = psdr::grad::AdOptions { replicas: 8, edge_samples: 1 << 16, secondary_edge_samples: 1 };
+    let ad = psdr::grad::analytic_gradient(&s, std::slice::from_ref(&p), &loss, &opts, &mut vk).unwrap();
+    let fd_opts = psdr::grad::FdOptions { step: 0.01, replicas: 8, components: vec![] };
+    let fd = psdr::grad::central_difference(&s, &p, &loss, &fd_opts, &mut vk).unwrap();
+    for c in 0..3 {
+        let bound = 4.0 * (ad.std_err[c].powi(2) + fd.std_err[c].powi(2)).sqrt();
+        eprintln!(
+            "radiance translation[{c}] on the device: AD {:.5e} ± {:.1e}, FD {:.5e} ± {:.1e}",
+            ad.mean[c], ad.std_err[c], fd.mean[c], fd.std_err[c]
+        );
+        assert!((ad.mean[c] - fd.mean[c]).abs() <= bound, "translation[{c}]: bound {bound}");
+        assert!(fd.mean[c].abs() > 4.0 * fd.std_err[c], "translation[{c}]: FD is noise");
+    }
 }
 
 #[test]

@@ -1,0 +1,81 @@
+//! The Vulkan backend's primary boundary term of radiance with respect to object poses
+//! (shaders/grad/vjp/radiance_pose.comp, the GLSL twin of `grad::radiance_primary_boundary`): silhouettes and
+//! creases chosen on the host (`PrimaryEdges::build`, as the CPU does), sampled on the device, two paths of
+//! the integrator per edge sample; one row per sample, summed in order (`vk_rows`). Vertex parameters stay on
+//! the CPU.
+
+use super::vk_backend::{upload, upload_scene, VkBackend};
+use super::vk_primary::{edge_words, pose_words};
+use super::vk_rows::rows_in_order;
+use crate::error::{Error, Result};
+use crate::grad::boundary::primary::PrimaryEdges;
+use crate::grad::PoseLayout;
+use crate::render::cpu::frame_params;
+use crate::render::layout::FrameParams;
+use crate::render::SceneData;
+use crate::scene::{RenderSettings, Scene};
+use bytemuck::{Pod, Zeroable};
+use psdr_vk::StorageBinding;
+
+/// Push constants of the kernel (its `Push` block).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct RadiancePrimaryParams {
+    pub fp: FrameParams,
+    pub grad_len: u32,
+    /// First edge sample of this pass and how many.
+    pub begin: u32,
+    pub count: u32,
+    pub pose_entry_count: u32,
+    pub edge_count: u32,
+    pub total_length: f32,
+    pub edge_samples: u32,
+}
+
+impl VkBackend {
+    /// `grad::radiance_primary_boundary` on the device when every pose entry is a pose component; `Ok(None)`
+    /// when some are vertices.
+    pub fn radiance_primary_on_device(
+        &mut self,
+        scene: &Scene,
+        d: &SceneData,
+        settings: &RenderSettings,
+        pose: &PoseLayout,
+        adjoint: &[f32],
+        edge_samples: u32,
+    ) -> Result<Option<Vec<f64>>> {
+        let Some(pose_words) = pose_words(pose) else { return Ok(None) };
+        let pixels = (d.camera.width * d.camera.height) as usize;
+        if adjoint.len() != pixels * 3 {
+            return Err(Error::Invalid(format!("adjoint image has {} values, expected {}", adjoint.len(), pixels * 3)));
+        }
+        let mut grad = vec![0.0f64; pose.len];
+        let edges = PrimaryEdges::build(scene, &d.camera, true, |o| pose.moves(o));
+        if pose.len == 0 || edges.edges.is_empty() || edge_samples == 0 {
+            return Ok(Some(grad));
+        }
+        let ctx = &self.ctx;
+        let scene_bufs = upload_scene(ctx, d)?;
+        let bufs = [
+            Box::new(upload(ctx, "pose_words", &pose_words)?) as Box<dyn StorageBinding>,
+            Box::new(upload(ctx, "edge_words", &edge_words(&edges))?) as Box<dyn StorageBinding>,
+            Box::new(upload(ctx, "edge_cdf", &edges.cdf)?) as Box<dyn StorageBinding>,
+            Box::new(upload(ctx, "adjoint", adjoint)?) as Box<dyn StorageBinding>,
+        ];
+        let params = RadiancePrimaryParams {
+            fp: frame_params(d, settings),
+            grad_len: pose.len as u32,
+            pose_entry_count: pose.entries.len() as u32,
+            edge_count: edges.edges.len() as u32,
+            total_length: edges.total_length,
+            edge_samples,
+            ..Default::default()
+        };
+        let inputs: Vec<&dyn StorageBinding> = scene_bufs.iter().chain(&bufs).map(|b| b.as_ref()).collect();
+        // Two paths per edge sample.
+        let per_pass = (self.pass_path_samples / 2).max(1) as usize;
+        let push = |begin, count| RadiancePrimaryParams { begin, count, ..params };
+        rows_in_order(ctx, &self.radiance_primary_vjp, &inputs, push, edge_samples as usize, per_pass, &mut grad)?;
+        Ok(Some(grad))
+    }
+}
