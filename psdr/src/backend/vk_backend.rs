@@ -23,7 +23,7 @@ pub struct VkBackend {
     /// The adjoint pass of depth and masks for poses (shaders/grad/vjp/aov.comp).
     pub(super) aov_vjp: Kernel<super::vk_aov::AovParams>,
     /// The primary boundary of radiance for poses (shaders/grad/vjp/radiance_pose.comp).
-    pub(super) radiance_primary_vjp: Kernel<super::vk_radiance_pose::RadiancePrimaryParams>,
+    pub(super) radiance_pose_vjp: Kernel<super::vk_radiance_pose::RadiancePoseParams>,
     pub(super) pass_path_samples: u64,
 }
 
@@ -68,13 +68,13 @@ impl VkBackend {
         let aov_vjp = Kernel::new(&ctx, "aov_vjp", &words, 16).map_err(backend_error)?;
         let words =
             kernel_words(shader_dir, "grad/vjp/radiance_pose", psdr_vk::include_spirv!("grad/vjp/radiance_pose"))?;
-        let radiance_primary_vjp = Kernel::new(&ctx, "radiance_primary_vjp", &words, 14).map_err(backend_error)?;
+        let radiance_pose_vjp = Kernel::new(&ctx, "radiance_pose_vjp", &words, 14).map_err(backend_error)?;
         Ok(VkBackend {
             ctx,
             path_trace,
             material_light_vjp,
             aov_vjp,
-            radiance_primary_vjp,
+            radiance_pose_vjp,
             pass_path_samples: PASS_PATH_SAMPLES,
         })
     }
@@ -144,6 +144,17 @@ impl Backend for VkBackend {
             Some(g) => Ok(g),
             None => Ok(crate::grad::radiance_primary_boundary(scene, data, settings, pose, adjoint, edge_samples)),
         }
+    }
+
+    /// On the device for pose components; `None` (the CPU) for vertices.
+    fn radiance_pose_interior(
+        &mut self,
+        data: &SceneData,
+        settings: &RenderSettings,
+        pose: &crate::grad::PoseLayout,
+        adjoint: &[f32],
+    ) -> Result<Option<Vec<f64>>> {
+        self.radiance_pose_interior_on_device(data, settings, pose, adjoint)
     }
 
     fn name(&self) -> String {

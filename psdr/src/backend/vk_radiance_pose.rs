@@ -1,9 +1,11 @@
-//! The Vulkan backend's primary boundary term of radiance with respect to object poses
-//! (shaders/grad/vjp/radiance_pose.comp, the GLSL twin of `grad::radiance_primary_boundary`): silhouettes and
-//! creases chosen on the host (`PrimaryEdges::build`, as the CPU does), sampled on the device, two paths of
-//! the integrator per edge sample; one row per sample, summed in order (`vk_rows`). Vertex parameters stay on
-//! the CPU.
+//! The Vulkan backend's radiance adjoint with respect to object poses (shaders/grad/vjp/radiance_pose.comp, the
+//! GLSL twin of grad/vjp/radiance_pose.rs): the primary boundary (silhouettes and creases chosen on the host by
+//! `PrimaryEdges::build`, as the CPU does, sampled on the device, two paths of the integrator per edge sample;
+//! one row per sample) and the ray-form interior term (each pixel's paths recorded and replayed in dual numbers
+//! along every pose component that touches them; one row per pixel); rows summed in order (`vk_rows`). The
+//! secondary boundary and vertex parameters stay on the CPU.
 
+use super::vk_adjoint::MAX_RECORD_DEPTH;
 use super::vk_backend::{upload, upload_scene, VkBackend};
 use super::vk_primary::{edge_words, pose_words};
 use super::vk_rows::rows_in_order;
@@ -20,7 +22,7 @@ use psdr_vk::StorageBinding;
 /// Push constants of the kernel (its `Push` block).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct RadiancePrimaryParams {
+pub struct RadiancePoseParams {
     pub fp: FrameParams,
     pub grad_len: u32,
     /// First edge sample of this pass and how many.
@@ -30,7 +32,12 @@ pub struct RadiancePrimaryParams {
     pub edge_count: u32,
     pub total_length: f32,
     pub edge_samples: u32,
+    /// PRIMARY (0) or INTERIOR (1).
+    pub mode: u32,
 }
+
+const PRIMARY: u32 = 0;
+const INTERIOR: u32 = 1;
 
 impl VkBackend {
     /// `grad::radiance_primary_boundary` on the device when every pose entry is a pose component; `Ok(None)`
@@ -62,7 +69,7 @@ impl VkBackend {
             Box::new(upload(ctx, "edge_cdf", &edges.cdf)?) as Box<dyn StorageBinding>,
             Box::new(upload(ctx, "adjoint", adjoint)?) as Box<dyn StorageBinding>,
         ];
-        let params = RadiancePrimaryParams {
+        let params = RadiancePoseParams {
             fp: frame_params(d, settings),
             grad_len: pose.len as u32,
             pose_entry_count: pose.entries.len() as u32,
@@ -74,8 +81,55 @@ impl VkBackend {
         let inputs: Vec<&dyn StorageBinding> = scene_bufs.iter().chain(&bufs).map(|b| b.as_ref()).collect();
         // Two paths per edge sample.
         let per_pass = (self.pass_path_samples / 2).max(1) as usize;
-        let push = |begin, count| RadiancePrimaryParams { begin, count, ..params };
-        rows_in_order(ctx, &self.radiance_primary_vjp, &inputs, push, edge_samples as usize, per_pass, &mut grad)?;
+        let push = |begin, count| RadiancePoseParams { begin, count, mode: PRIMARY, ..params };
+        rows_in_order(ctx, &self.radiance_pose_vjp, &inputs, push, edge_samples as usize, per_pass, &mut grad)?;
+        Ok(Some(grad))
+    }
+
+    /// The interior term of `grad::radiance_pose_vjp` (its ray-form replay) on the device when every pose entry
+    /// is a pose component; `Ok(None)` when some are vertices.
+    pub fn radiance_pose_interior_on_device(
+        &mut self,
+        d: &SceneData,
+        settings: &RenderSettings,
+        pose: &PoseLayout,
+        adjoint: &[f32],
+    ) -> Result<Option<Vec<f64>>> {
+        let Some(pose_words) = pose_words(pose) else { return Ok(None) };
+        let pixels = (d.camera.width * d.camera.height) as usize;
+        if adjoint.len() != pixels * 3 {
+            return Err(Error::Invalid(format!("adjoint image has {} values, expected {}", adjoint.len(), pixels * 3)));
+        }
+        if settings.max_depth > MAX_RECORD_DEPTH {
+            return Err(Error::Invalid(format!(
+                "the Vulkan adjoint records paths of at most {MAX_RECORD_DEPTH} vertices; max_depth is {}",
+                settings.max_depth
+            )));
+        }
+        let mut grad = vec![0.0f64; pose.len];
+        if pose.len == 0 {
+            return Ok(Some(grad));
+        }
+        let ctx = &self.ctx;
+        let scene_bufs = upload_scene(ctx, d)?;
+        let bufs = [
+            Box::new(upload(ctx, "pose_words", &pose_words)?) as Box<dyn StorageBinding>,
+            Box::new(upload::<u32>(ctx, "edge_words", &[])?) as Box<dyn StorageBinding>,
+            Box::new(upload::<f32>(ctx, "edge_cdf", &[])?) as Box<dyn StorageBinding>,
+            Box::new(upload(ctx, "adjoint", adjoint)?) as Box<dyn StorageBinding>,
+        ];
+        let fp = frame_params(d, settings);
+        let params = RadiancePoseParams {
+            fp,
+            grad_len: pose.len as u32,
+            pose_entry_count: pose.entries.len() as u32,
+            mode: INTERIOR,
+            ..Default::default()
+        };
+        let inputs: Vec<&dyn StorageBinding> = scene_bufs.iter().chain(&bufs).map(|b| b.as_ref()).collect();
+        let per_pass = (self.pass_path_samples / u64::from(fp.spp.max(1))).max(1) as usize;
+        let push = |begin, count| RadiancePoseParams { begin, count, ..params };
+        rows_in_order(ctx, &self.radiance_pose_vjp, &inputs, push, pixels, per_pass, &mut grad)?;
         Ok(Some(grad))
     }
 }

@@ -4,6 +4,7 @@
 // Rust twin: psdr/src/grad/ad/dual.rs.
 #ifndef PSDR_DUAL_GLSL
 #define PSDR_DUAL_GLSL
+#include "render/vec_math.glsl"
 
 struct D {
     float v;
@@ -90,6 +91,28 @@ D3 d3_add(D3 a, D3 b) {
 
 D3 d3_sub(D3 a, D3 b) {
     return D3(a.v - b.v, a.d - b.d);
+}
+
+D d_neg(D a) {
+    return D(-a.v, -a.d);
+}
+
+D3 d3_cross(D3 a, D3 b) {
+    return D3(cross3(a.v, b.v), cross3(a.d, b.v) + cross3(a.v, b.d));
+}
+
+D3 d3_neg(D3 a) {
+    return D3(-a.v, -a.d);
+}
+
+// Component-wise product with a constant colour.
+D3 d3_mul_c(D3 a, vec3 c) {
+    return D3(a.v * c, a.d * c);
+}
+
+// Component-wise product of two dual colours.
+D3 d3_mul(D3 a, D3 b) {
+    return D3(a.v * b.v, a.d * b.v + a.v * b.d);
 }
 
 #endif

@@ -2,8 +2,7 @@
 // hooks of render/path_trace.glsl write the record (the Rust twin's PathObserver methods). A kernel includes
 // this file before render/path_trace.glsl; the record lives in invocation-private memory, at most
 // MAX_RECORD_DEPTH vertices (the host refuses deeper paths).
-// Rust twin: psdr/src/grad/path/record.rs (the Recorder's hit, emission, scatter, nee, continuation; its start,
-// which keeps the camera ray for the CPU's geometric replays, has nothing to record here).
+// Rust twin: psdr/src/grad/path/record.rs (the Recorder's start, hit, emission, scatter, nee, continuation).
 // GLSL only: recorder_flush (stores the finished vertex; a Rust Vec is written in place).
 #ifndef PSDR_RECORD_GLSL
 #define PSDR_RECORD_GLSL
@@ -15,24 +14,30 @@
 
 const uint MAX_RECORD_DEPTH = 16u;
 
-// The fields of the Rust twin's RecordedVertex that the GPU adjoint reads (emission, next-event and
-// continuation terms; their detached densities; the texture coordinates after the uv transform).
+// The fields of the Rust twin's RecordedVertex that the GPU adjoints read (emission, next-event and
+// continuation terms; their detached densities; the texture coordinates after the uv transform; the triangles
+// and world directions a geometric replay follows).
 struct RecordedVertex {
     vec3 throughput;
     uint material;
     vec2 uv;
+    uint triangle;
+    vec3 emission;
     uint emitter;
     float emission_mis;
     vec3 local;
     vec3 wi_local;
     BsdfParams bsdf;
     bool has_nee;
+    uint nee_triangle;
+    vec3 nee_dir;
     uint nee_emitter;
     float nee_w_over_pdf;
     vec3 nee_radiance;
     vec3 nee_f;
     vec3 nee_wo_local;
     bool has_next;
+    vec3 next_dir;
     float next_pdf;
     float next_q;
     vec3 next_beta;
@@ -41,6 +46,9 @@ struct RecordedVertex {
 
 RecordedVertex rec_vertices[MAX_RECORD_DEPTH];
 uint rec_count;
+// The camera ray the path starts with.
+vec3 rec_origin;
+vec3 rec_dir;
 // The vertex whose events are arriving. Events write its fields here and recorder_flush stores it whole into
 // rec_vertices: field writes through a dynamic index into the private array were dropped by lavapipe's
 // compiler (Mesa 22.3) when the array was read back in another loop, while whole-element stores survive.
@@ -53,24 +61,34 @@ void recorder_flush() {
     }
 }
 
+void recorder_start(vec3 origin, vec3 dir) {
+    rec_origin = origin;
+    rec_dir = dir;
+}
+
 void recorder_hit(Hit hit, SurfacePoint sp, vec3 beta) {
     recorder_flush();
     RecordedVertex v;
     v.throughput = beta;
     v.material = triangles[hit.triangle].material;
     v.uv = sp.uv;
+    v.triangle = hit.triangle;
+    v.emission = vec3(0.0);
     v.emitter = NONE;
     v.emission_mis = 0.0;
     v.local = vec3(0.0);
     v.wi_local = vec3(0.0);
     v.bsdf = sp.bsdf;
     v.has_nee = false;
+    v.nee_triangle = NONE;
+    v.nee_dir = vec3(0.0);
     v.nee_emitter = NONE;
     v.nee_w_over_pdf = 0.0;
     v.nee_radiance = vec3(0.0);
     v.nee_f = vec3(0.0);
     v.nee_wo_local = vec3(0.0);
     v.has_next = false;
+    v.next_dir = vec3(0.0);
     v.next_pdf = 1.0;
     v.next_q = 1.0;
     v.next_beta = vec3(0.0);
@@ -81,6 +99,7 @@ void recorder_hit(Hit hit, SurfacePoint sp, vec3 beta) {
 
 void recorder_emission(uint emitter, vec3 le, float mis) {
     rec_current.emitter = emitter;
+    rec_current.emission = le;
     rec_current.emission_mis = mis;
     rec_current.local += le * mis;
 }
@@ -89,9 +108,11 @@ void recorder_scatter(vec3 wi) {
     rec_current.wi_local = wi;
 }
 
-void recorder_nee(uint emitter, vec3 radiance, float w_over_pdf, vec3 f, vec3 wo) {
+void recorder_nee(float u_select, vec3 dir, uint emitter, vec3 radiance, float w_over_pdf, vec3 f, vec3 wo) {
     rec_current.local += f * radiance * w_over_pdf;
     rec_current.has_nee = true;
+    rec_current.nee_triangle = lights[select_light(fp.light_count, u_select)].triangle;
+    rec_current.nee_dir = dir;
     rec_current.nee_emitter = emitter;
     rec_current.nee_w_over_pdf = w_over_pdf;
     rec_current.nee_radiance = radiance;
@@ -99,19 +120,20 @@ void recorder_nee(uint emitter, vec3 radiance, float w_over_pdf, vec3 f, vec3 wo
     rec_current.nee_wo_local = wo;
 }
 
-void recorder_continuation(float pdf, float q, vec3 weight, vec3 wo) {
+void recorder_continuation(vec3 dir, float pdf, float q, vec3 weight, vec3 wo) {
     rec_current.has_next = true;
+    rec_current.next_dir = dir;
     rec_current.next_pdf = pdf;
     rec_current.next_q = q;
     rec_current.next_beta = weight / q; // q is 1 before roulette: exact
     rec_current.next_wo_local = wo;
 }
 
-#define OBSERVE_START(origin, dir)
+#define OBSERVE_START(origin, dir) recorder_start(origin, dir)
 #define OBSERVE_HIT(hit, sp, beta) recorder_hit(hit, sp, beta)
 #define OBSERVE_EMISSION(emitter, le, mis) recorder_emission(emitter, le, mis)
 #define OBSERVE_SCATTER(wi) recorder_scatter(wi)
-#define OBSERVE_NEE(u_select, wl, emitter, radiance, w_over_pdf, f, wo) recorder_nee(emitter, radiance, w_over_pdf, f, wo)
-#define OBSERVE_CONTINUATION(dir, pdf, q, weight, wo) recorder_continuation(pdf, q, weight, wo)
+#define OBSERVE_NEE(u_select, wl, emitter, radiance, w_over_pdf, f, wo) recorder_nee(u_select, wl, emitter, radiance, w_over_pdf, f, wo)
+#define OBSERVE_CONTINUATION(dir, pdf, q, weight, wo) recorder_continuation(dir, pdf, q, weight, wo)
 
 #endif

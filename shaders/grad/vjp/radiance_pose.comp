@@ -1,10 +1,14 @@
 #version 450
-// The primary boundary term of radiance with respect to object poses: silhouettes and creases seen by the
-// camera, sampled by projected length (grad/boundary/primary.glsl), the radiance difference across an edge
-// taken from two paths of the integrator that share their random numbers. One invocation per edge sample writes
-// its own row of grad_len floats; the host sums the rows in sample order.
-// Rust twin: psdr/src/grad/vjp/radiance_pose.rs (radiance_primary_boundary).
-// GLSL only: weighted_jump (the closure radiance_primary_boundary passes to primary_boundary).
+// Reverse mode of the radiance image with respect to object poses, two terms:
+// mode PRIMARY: the primary boundary, silhouettes and creases seen by the camera, sampled by projected length
+// (grad/boundary/primary.glsl), the radiance difference across an edge taken from two paths of the integrator
+// that share their random numbers; one invocation per edge sample.
+// mode INTERIOR: the ray-form interior term, each sample's path recorded and replayed in dual numbers along
+// every pose component that moves a triangle of the path (grad/interior/geometry.glsl); one invocation per pixel.
+// Each invocation writes its own row of grad_len floats; the host sums the rows in order.
+// Rust twin: psdr/src/grad/vjp/radiance_pose.rs (radiance_pose_vjp, radiance_primary_boundary).
+// GLSL only: weighted_jump, path_touches (the closure radiance_primary_boundary passes to primary_boundary; the
+// test entries_touching makes per object).
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 64) in;
 
@@ -20,7 +24,11 @@ layout(push_constant) uniform Push {
     uint edge_count;
     float total_length;
     uint edge_samples;
+    uint mode;
 };
+
+const uint PRIMARY = 0u;
+const uint INTERIOR = 1u;
 
 layout(std430, set = 0, binding = 9) readonly buffer PoseWords { uint pose_words[]; };
 layout(std430, set = 0, binding = 10) readonly buffer EdgeWords { uint edge_words[]; };
@@ -29,8 +37,10 @@ layout(std430, set = 0, binding = 11) readonly buffer EdgeCdf { float edge_cdf[]
 layout(std430, set = 0, binding = 12) readonly buffer Adjoint { float adjoint[]; };
 layout(std430, set = 0, binding = 13) buffer GradRows { float grad_rows[]; };
 
+#include "grad/path/record.glsl"
 #include "render/path_trace.glsl"
 #include "grad/boundary/primary.glsl"
+#include "grad/interior/geometry.glsl"
 
 float weighted_jump(uint pixel, vec2 y, vec2 n, Sampler s) {
     vec3 delta = vec3(adjoint[3u * pixel], adjoint[3u * pixel + 1u], adjoint[3u * pixel + 2u]);
@@ -43,6 +53,42 @@ float weighted_jump(uint pixel, vec2 y, vec2 n, Sampler s) {
     return dot3(delta, inner - outer);
 }
 
+// True when some vertex or light sample of the recorded path lies on `object`: the pose components of other
+// objects leave the path's value unchanged in the interior term.
+bool path_touches(uint object) {
+    for (uint k = 0u; k < rec_count; k++) {
+        if (triangles[rec_vertices[k].triangle].object == object) {
+            return true;
+        }
+        if (rec_vertices[k].has_nee && triangles[rec_vertices[k].nee_triangle].object == object) {
+            return true;
+        }
+    }
+    return false;
+}
+
+// The interior term at pixel p: every sample's path, replayed along every pose entry whose object it touches.
+void radiance_pose_vjp(uint p, uint row) {
+    CameraGpu cam = camera[0];
+    vec3 delta = vec3(adjoint[3u * p], adjoint[3u * p + 1u], adjoint[3u * p + 2u]) / float(fp.spp);
+    if (delta == vec3(0.0)) {
+        return;
+    }
+    for (uint sample_ = 0u; sample_ < fp.spp; sample_++) {
+        rec_count = 0u;
+        trace_path(p % cam.width, p / cam.width, sample_);
+        recorder_flush();
+        for (uint e = 0u; e < pose_entry_count; e++) {
+            PoseEntry entry = pose_entry(e);
+            if (!path_touches(entry.object)) {
+                continue;
+            }
+            vec3 dl = replay_radiance(Tangent(entry.object, entry.field));
+            grad_rows[row + entry.at] += dot3(delta, dl);
+        }
+    }
+}
+
 void main() {
     uint i = gl_GlobalInvocationID.y * (gl_NumWorkGroups.x * 64u) + gl_GlobalInvocationID.x;
     if (i >= count) {
@@ -52,5 +98,9 @@ void main() {
     for (uint k = 0u; k < grad_len; k++) {
         grad_rows[row + k] = 0.0;
     }
-    primary_boundary_sample(fp.seed, edge_samples, begin + i, row);
+    if (mode == INTERIOR) {
+        radiance_pose_vjp(begin + i, row);
+    } else {
+        primary_boundary_sample(fp.seed, edge_samples, begin + i, row);
+    }
 }

@@ -38,6 +38,9 @@ impl<'a> Tangent<'a> {
         let (object, component, _) = pose.entries[e];
         Tangent { pose, object, component }
     }
+}
+
+impl Tangent<'_> {
     fn moves(&self, object: u32) -> bool {
         object == self.object
     }

@@ -43,6 +43,12 @@ impl AffineVelocity {
         let r = x - self.t;
         self.a + (self.g.x_axis * r.x + self.g.y_axis * r.y + self.g.z_axis * r.z)
     }
+
+    /// ∂n/∂θ of a unit normal carried by the motion (`PoseLayout::normal_velocity`).
+    pub fn normal(&self, n: Vec3) -> Vec3 {
+        let gt_n = Vec3::new(self.g.x_axis.dot(n), self.g.y_axis.dot(n), self.g.z_axis.dot(n));
+        -gt_n + n * n.dot(gt_n)
+    }
 }
 
 /// The pose components a set of parameter paths asks for, with their offsets in the gradient vector.
@@ -323,8 +329,11 @@ mod tests {
                 assert!((u - fd_x).length() < 2e-3 * (1.0 + fd_x.length()), "{path}[{k}]: {u} vs FD {fd_x}");
                 assert!((dn - fd_n).length() < 2e-3 * (1.0 + fd_n.length()), "{path}[{k}] normal: {dn} vs FD {fd_n}");
                 // The affine form the GPU kernels use is the same field (to f32 rounding).
-                let affine = layout.affine_velocity(o, c).expect("pose components are affine").at(x);
+                let field = layout.affine_velocity(o, c).expect("pose components are affine");
+                let affine = field.at(x);
                 assert!((affine - u).length() <= 1e-6 * (1.0 + u.length()), "{path}[{k}]: affine {affine} vs {u}");
+                let dn_affine = field.normal(normal(&scene));
+                assert!((dn_affine - dn).length() <= 1e-6 * (1.0 + dn.length()), "{path}[{k}]: {dn_affine} vs {dn}");
             }
         }
     }

@@ -39,9 +39,34 @@ pub fn radiance_pose_vjp(
 ) -> Result<Vec<f64>> {
     let (w, h) = (d.camera.width as usize, d.camera.height as usize);
     check_adjoint(adjoint, w * h * 3)?;
+    // The secondary boundary reads each path's replayed vertex velocities, so a device computes the interior
+    // alone only when the secondary term is off; otherwise both run here, path by path.
+    let on_device =
+        if samples.secondary == 0 { backend.radiance_pose_interior(d, settings, pose, adjoint)? } else { None };
+    let mut grad = match on_device {
+        Some(g) => g,
+        None => interior_and_secondary(scene, d, settings, pose, adjoint, samples.secondary),
+    };
+    let primary = backend.radiance_primary_boundary(scene, d, settings, pose, adjoint, samples.primary)?;
+    grad.iter_mut().zip(primary).for_each(|(g, p)| *g += p);
+    Ok(grad)
+}
+
+/// The ray-form interior term and the secondary boundary (`secondary_samples` per path vertex; 0: off) on the
+/// CPU: each path is recorded once, replayed along every entry that touches it, and its replayed vertex
+/// velocities drive the secondary edge samples.
+fn interior_and_secondary(
+    scene: &Scene,
+    d: &SceneData,
+    settings: &RenderSettings,
+    pose: &PoseLayout,
+    adjoint: &[f32],
+    secondary_samples: u32,
+) -> Vec<f64> {
+    let (w, h) = (d.camera.width as usize, d.camera.height as usize);
     let fp = frame_params(d, settings);
     let secondary = SecondaryEdges::build(scene, |o| pose.moves(o));
-    let mut grad = accumulate_blocks(h, pose.len, |rows, g| {
+    accumulate_blocks(h, pose.len, |rows, g| {
         let mut rec = PathRecord::default();
         // Vertex velocities of the path under each active entry (indexed like `active`).
         let mut velocities: Vec<Vec<Vec3>> = vec![];
@@ -61,19 +86,16 @@ pub fn radiance_pose_vjp(
                         let (dl, _) = replay_radiance(d, &Tangent::of(pose, e), &rec, &mut velocities[j]);
                         g[pose.entries[e].2] += delta.dot(dl) as f64;
                     }
-                    if samples.secondary > 0 {
+                    if secondary_samples > 0 {
                         let s = Sampler { seed: fp.seed, pixel: (y * w + x) as u32, sample };
                         let paths =
                             SecondaryPath { rec: &rec, active: &active, velocities: &velocities, sampler: &s, delta };
-                        secondary_boundary(d, &fp, pose, &secondary, &paths, samples.secondary, g);
+                        secondary_boundary(d, &fp, pose, &secondary, &paths, secondary_samples, g);
                     }
                 }
             }
         }
-    });
-    let primary = backend.radiance_primary_boundary(scene, d, settings, pose, adjoint, samples.primary)?;
-    grad.iter_mut().zip(primary).for_each(|(g, p)| *g += p);
-    Ok(grad)
+    })
 }
 
 /// Primary boundary of radiance: silhouettes and creases, two paths per edge sample (the integrator's radiance
