@@ -15,7 +15,7 @@ pub use vk_backend::{layout_check_spirv, VkBackend, SHADER_DIR_ENV};
 
 use crate::error::{Error, Result};
 use crate::grad::GradLayout;
-use crate::grad::{AovAdjoints, PoseLayout};
+use crate::grad::{AovAdjoints, PixelwiseAdjoint, PoseLayout};
 use crate::render::{Frame, SceneData};
 use crate::scene::{RenderSettings, Scene};
 
@@ -37,6 +37,19 @@ pub trait Backend {
         adjoint: &[f32],
     ) -> Result<Vec<f64>> {
         crate::grad::radiance_vjp(data, settings, layout, adjoint)
+    }
+    /// The fused estimator of an L2 radiance loss's gradient w.r.t. the material and light parameters of
+    /// `layout` (`grad::radiance_vjp_cross`): the gradient and the rendered image. A device computes what its
+    /// kernels cover and leaves the rest to the CPU reference.
+    fn radiance_vjp_cross(
+        &mut self,
+        data: &SceneData,
+        settings: &RenderSettings,
+        layout: &GradLayout,
+        adjoint: &PixelwiseAdjoint,
+        seed_b: u32,
+    ) -> Result<(Vec<f64>, Vec<f32>)> {
+        crate::grad::radiance_vjp_cross(data, settings, layout, adjoint, seed_b)
     }
     /// dLoss/dθ of the pose entries of `pose` given the adjoints of depth and masks (`grad::aovs_vjp`: the depth
     /// interior and the silhouette boundary with `edge_samples` samples). A device computes what its kernels

@@ -10,14 +10,14 @@
 use super::vk_backend::{backend_error, upload, upload_scene, VkBackend};
 use crate::error::{Error, Result};
 use crate::grad::interior::material_light::texture_read_adjoint;
-use crate::grad::GradLayout;
+use crate::grad::{DeviceSlots, GradLayout, PixelwiseAdjoint};
 use crate::render::cpu::frame_params;
 use crate::render::layout::{FrameParams, NONE};
 use crate::render::SceneData;
 use crate::scene::RenderSettings;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
-use psdr_vk::{Buffer, Groups, StorageBinding};
+use psdr_vk::{Buffer, Groups, Kernel, StorageBinding};
 
 /// Push constants of the adjoint kernel (its `Push` block).
 #[repr(C)]
@@ -43,6 +43,16 @@ pub const MAX_RECORD_DEPTH: u32 = 16;
 /// on lavapipe).
 const MAX_ROWS_BYTES: u64 = 64 << 20;
 
+/// Push constants of the fused kernel (shaders/grad/interior/fused_l2.comp): the adjoint kernel's, then the
+/// second half's seed and the loss's scale.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct FusedParams {
+    pub base: AdjointParams,
+    pub seed_b: u32,
+    pub scale: f32,
+}
+
 impl VkBackend {
     /// `grad::radiance_vjp` on the device, when its layout asks only for what the kernel covers
     /// (`GradLayout::device_slots`); `Ok(None)` otherwise.
@@ -54,29 +64,65 @@ impl VkBackend {
         adjoint: &[f32],
     ) -> Result<Option<Vec<f64>>> {
         let Some(slots) = layout.device_slots() else { return Ok(None) };
-        let (w, h) = (d.camera.width as usize, d.camera.height as usize);
-        if adjoint.len() != w * h * 3 {
-            return Err(Error::Invalid(format!("adjoint image has {} values, expected {}", adjoint.len(), w * h * 3)));
-        }
-        if let Some(i) = adjoint.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Invalid(format!("adjoint image value {i} is not finite")));
-        }
-        if settings.max_depth > MAX_RECORD_DEPTH {
-            return Err(Error::Invalid(format!(
-                "the Vulkan adjoint records paths of at most {MAX_RECORD_DEPTH} vertices; max_depth is {}",
-                settings.max_depth
-            )));
-        }
-        let len = layout.len;
-        if len == 0 {
+        check_image(d, adjoint, "adjoint image")?;
+        check_depth(settings)?;
+        if layout.len == 0 {
             return Ok(Some(vec![]));
         }
-        let ctx = &self.ctx;
-        let scene = upload_scene(ctx, d)?;
-        let adjoint_buf = upload(ctx, "adjoint", adjoint)?;
-        let slots_buf = upload(ctx, "slots", &slots.table)?;
+        let adjoint_buf = upload(&self.ctx, "adjoint", adjoint)?;
         let fp = frame_params(d, settings);
-        let pixels = w * h;
+        let grad =
+            self.sweep_passes(&self.material_light_vjp, d, layout, &slots, fp, &adjoint_buf, &[], |base| base)?;
+        layout.finish(grad).map(Some)
+    }
+
+    /// `grad::radiance_vjp_cross` (the fused estimator of an L2 loss) on the device, when the layout asks only
+    /// for what the kernel covers; `Ok(None)` otherwise. Returns the gradient and the rendered image.
+    pub fn radiance_vjp_cross_on_device(
+        &mut self,
+        d: &SceneData,
+        settings: &RenderSettings,
+        layout: &GradLayout,
+        adjoint: &PixelwiseAdjoint,
+        seed_b: u32,
+    ) -> Result<Option<(Vec<f64>, Vec<f32>)>> {
+        let Some(slots) = layout.device_slots() else { return Ok(None) };
+        check_image(d, adjoint.target, "loss target")?;
+        check_depth(settings)?;
+        if settings.spp < 2 || seed_b == settings.seed {
+            return Err(Error::Invalid("the fused estimator needs spp >= 2 and two different seeds".into()));
+        }
+        let pixels = (d.camera.width * d.camera.height) as usize;
+        let target = upload(&self.ctx, "target", adjoint.target)?;
+        let image = Buffer::<f32>::zeroed(&self.ctx, "image", pixels * 3).map_err(backend_error)?;
+        let fp = frame_params(d, settings);
+        let scale = adjoint.scale;
+        let push = |base| FusedParams { base, seed_b, scale };
+        let grad = self.sweep_passes(&self.fused_l2_vjp, d, layout, &slots, fp, &target, &[&image], push)?;
+        let image = image.download_range(0, pixels * 3).map_err(backend_error)?;
+        Ok(Some((layout.finish(grad)?, image)))
+    }
+
+    /// Runs a sweep kernel (bindings: the scene, `input` at 9, the slot table, the gradient rows, the texture
+    /// reads, then `tail`) over the image in passes, summing the rows in pixel order and carrying the texture
+    /// reads with `texture_read_adjoint` in pixel, path and sweep order; returns the extended gradient.
+    #[allow(clippy::too_many_arguments)]
+    fn sweep_passes<P: Pod>(
+        &self,
+        kernel: &Kernel<P>,
+        d: &SceneData,
+        layout: &GradLayout,
+        slots: &DeviceSlots,
+        fp: FrameParams,
+        input: &dyn StorageBinding,
+        tail: &[&dyn StorageBinding],
+        push: impl Fn(AdjointParams) -> P,
+    ) -> Result<Vec<f64>> {
+        let ctx = &self.ctx;
+        let len = layout.len;
+        let scene = upload_scene(ctx, d)?;
+        let slots_buf = upload(ctx, "slots", &slots.table)?;
+        let pixels = (d.camera.width * d.camera.height) as usize;
         let by_paths = (self.pass_path_samples / u64::from(fp.spp.max(1))).max(1);
         let by_rows = (MAX_ROWS_BYTES / (len as u64 * 4)).max(1);
         let reads_per_pixel = (fp.spp * MAX_RECORD_DEPTH) as usize * TEXTURE_READ_WORDS;
@@ -90,7 +136,7 @@ impl VkBackend {
         let mut begin = 0;
         while begin < pixels {
             let count = per_pass.min(pixels - begin);
-            let push = AdjointParams {
+            let base = AdjointParams {
                 fp,
                 grad_len: len as u32,
                 pixel_begin: begin as u32,
@@ -102,11 +148,10 @@ impl VkBackend {
             let bindings: Vec<&dyn StorageBinding> = scene
                 .iter()
                 .map(|b| b.as_ref())
-                .chain([&adjoint_buf as &dyn StorageBinding, &slots_buf, &rows, &reads])
+                .chain([input, &slots_buf as &dyn StorageBinding, &rows, &reads])
+                .chain(tail.iter().copied())
                 .collect();
-            self.material_light_vjp
-                .dispatch(&bindings, &push, Groups::folded_2d(count as u64, 64))
-                .map_err(backend_error)?;
+            kernel.dispatch(&bindings, &push(base), Groups::folded_2d(count as u64, 64)).map_err(backend_error)?;
             let values = rows.download_range(0, count * len).map_err(backend_error)?;
             for row in values.chunks_exact(len) {
                 grad.iter_mut().zip(row).for_each(|(g, &v)| *g += v as f64);
@@ -124,6 +169,28 @@ impl VkBackend {
             }
             begin += count;
         }
-        layout.finish(grad).map(Some)
+        Ok(grad)
     }
+}
+
+/// An image-sized input (3 floats per pixel), finite.
+fn check_image(d: &SceneData, values: &[f32], what: &str) -> Result<()> {
+    let n = (d.camera.width * d.camera.height * 3) as usize;
+    if values.len() != n {
+        return Err(Error::Invalid(format!("{what} has {} values, expected {n}", values.len())));
+    }
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(Error::Invalid(format!("{what} value {i} is not finite")));
+    }
+    Ok(())
+}
+
+fn check_depth(settings: &RenderSettings) -> Result<()> {
+    if settings.max_depth > MAX_RECORD_DEPTH {
+        return Err(Error::Invalid(format!(
+            "the Vulkan adjoint records paths of at most {MAX_RECORD_DEPTH} vertices; max_depth is {}",
+            settings.max_depth
+        )));
+    }
+    Ok(())
 }

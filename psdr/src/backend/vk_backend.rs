@@ -20,6 +20,8 @@ pub struct VkBackend {
     path_trace: Kernel<FrameParams>,
     /// The adjoint pass of material and light parameters (shaders/grad/interior/material_light.comp).
     pub(super) material_light_vjp: Kernel<super::vk_adjoint::AdjointParams>,
+    /// The fused estimator of an L2 loss for material and light parameters (shaders/grad/interior/fused_l2.comp).
+    pub(super) fused_l2_vjp: Kernel<super::vk_adjoint::FusedParams>,
     /// The adjoint pass of depth and masks for poses (shaders/grad/vjp/aov.comp).
     pub(super) aov_vjp: Kernel<super::vk_aov::AovParams>,
     /// The primary boundary of radiance for poses (shaders/grad/vjp/radiance_pose.comp).
@@ -64,6 +66,9 @@ impl VkBackend {
             psdr_vk::include_spirv!("grad/interior/material_light"),
         )?;
         let material_light_vjp = Kernel::new(&ctx, "material_light_vjp", &words, 13).map_err(backend_error)?;
+        let words =
+            kernel_words(shader_dir, "grad/interior/fused_l2", psdr_vk::include_spirv!("grad/interior/fused_l2"))?;
+        let fused_l2_vjp = Kernel::new(&ctx, "fused_l2_vjp", &words, 14).map_err(backend_error)?;
         let words = kernel_words(shader_dir, "grad/vjp/aov", psdr_vk::include_spirv!("grad/vjp/aov"))?;
         let aov_vjp = Kernel::new(&ctx, "aov_vjp", &words, 16).map_err(backend_error)?;
         let words =
@@ -73,6 +78,7 @@ impl VkBackend {
             ctx,
             path_trace,
             material_light_vjp,
+            fused_l2_vjp,
             aov_vjp,
             radiance_pose_vjp,
             pass_path_samples: PASS_PATH_SAMPLES,
@@ -111,6 +117,21 @@ impl Backend for VkBackend {
         match self.radiance_vjp_on_device(data, settings, layout, adjoint)? {
             Some(g) => Ok(g),
             None => crate::grad::radiance_vjp(data, settings, layout, adjoint),
+        }
+    }
+
+    /// On the device where the sweep kernel covers the layout, else the CPU reference.
+    fn radiance_vjp_cross(
+        &mut self,
+        data: &SceneData,
+        settings: &RenderSettings,
+        layout: &crate::grad::GradLayout,
+        adjoint: &crate::grad::PixelwiseAdjoint,
+        seed_b: u32,
+    ) -> Result<(Vec<f64>, Vec<f32>)> {
+        match self.radiance_vjp_cross_on_device(data, settings, layout, adjoint, seed_b)? {
+            Some(r) => Ok(r),
+            None => crate::grad::radiance_vjp_cross(data, settings, layout, adjoint, seed_b),
         }
     }
 

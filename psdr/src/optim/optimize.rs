@@ -10,8 +10,8 @@ use super::rendered::Rendered;
 use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::grad::{
-    moves_geometry, outputs_vjp, radiance_vjp_cross, BoundarySamples, GradLayout, GradientEvaluator, ParamPath,
-    PixelwiseAdjoint, ADJOINT_SEED_OFFSET,
+    moves_geometry, outputs_vjp, BoundarySamples, GradLayout, GradientEvaluator, ParamPath, PixelwiseAdjoint,
+    ADJOINT_SEED_OFFSET,
 };
 use crate::loss::{self, Tensor};
 use crate::report::IterationRecord;
@@ -214,7 +214,7 @@ fn evaluate(
             let layout = GradLayout::new(scene, paths)?;
             let px = PixelwiseAdjoint { target: &target, scale };
             let seed_b = settings.seed.wrapping_add(ADJOINT_SEED_OFFSET);
-            let (g, image) = radiance_vjp_cross(data, &settings, &layout, &px, seed_b)?;
+            let (g, image) = backend.radiance_vjp_cross(data, &settings, &layout, &px, seed_b)?;
             let t_render = t0.elapsed().as_secs_f64();
             let t1 = Instant::now();
             let r = Rc::new(Rendered::radiance_only(scene.camera.width, scene.camera.height, image, names.clone()));

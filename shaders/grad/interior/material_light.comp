@@ -7,9 +7,8 @@
 //     ∂L/∂θ = Σ_k T_k (∂n_k/∂θ + ∂β_k/∂θ R_{k+1} + ∂e_k/∂θ),   R_k = e_k + n_k + β_k R_{k+1}.
 // Deterministic accumulation: each invocation (one pixel) writes only its own row of the gradient buffer
 // (grad_len floats), and the host sums the rows in pixel order; no atomics, so the result never depends on
-// scheduling. Rust twin: psdr/src/grad/interior/material_light.rs (radiance_vjp, backward_sweep).
-// GLSL only: texture_read_out (hands a vertex's texture_read_adjoint arguments to the host, which calls the
-// Rust function itself: whole-texture gradients do not fit a row per pixel).
+// scheduling. The sweep itself is grad/interior/material_light.glsl.
+// Rust twin: psdr/src/grad/interior/material_light.rs (radiance_vjp).
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 64) in;
 
@@ -28,104 +27,10 @@ layout(push_constant) uniform Push {
 
 // dLoss/d(radiance), 3 per pixel of the whole image.
 layout(std430, set = 0, binding = 9) readonly buffer Adjoint { float adjoint[]; };
-// Gradient offsets (NONE for none): per material its albedo's, per emitter its radiance's, per material its
-// roughness's, per material its specular's; then per material the BSDF derivatives wanted (WANTED_*) and
-// whether its texture reads are (1) or not (0).
-layout(std430, set = 0, binding = 10) readonly buffer Slots { uint slots[]; };
-// One row of grad_len per pixel of this pass.
-layout(std430, set = 0, binding = 11) buffer GradRows { float grad_rows[]; };
-// Texture-space adjoints, when some material's are wanted (texture_reads != 0): per path of this pass (pixel,
-// sample) MAX_RECORD_DEPTH entries of TEXTURE_READ_FLOATS in sweep order, (material, uv, d_albedo, d_rough)
-// with the floats as their bits, ended by a material of NONE unless full. The host carries them into texels, whole maps and uv transforms with
-// the CPU's own texture_read_adjoint, in pixel, sample and sweep order.
-layout(std430, set = 0, binding = 12) buffer TextureReads { uint texture_reads_out[]; };
-
-const uint WANTED_NOTHING = 0u;
-const uint WANTED_ALBEDO = 1u;
-const uint WANTED_ALL = 2u;
-const uint TEXTURE_READ_FLOATS = 8u;
 
 #include "grad/path/record.glsl"
 #include "render/path_trace.glsl"
-#include "grad/ad/bsdf_grad.glsl"
-
-void add3(uint row, uint slot, vec3 v) {
-    if (slot != NONE) {
-        grad_rows[row + slot] += v.x;
-        grad_rows[row + slot + 1u] += v.y;
-        grad_rows[row + slot + 2u] += v.z;
-    }
-}
-
-// Stores one vertex's texture-space adjoint for the host (texture_read_adjoint there).
-void texture_read_out(uint at, uint material, vec2 uv, vec3 d_albedo, float d_rough) {
-    texture_reads_out[at] = material;
-    texture_reads_out[at + 1u] = floatBitsToUint(uv.x);
-    texture_reads_out[at + 2u] = floatBitsToUint(uv.y);
-    texture_reads_out[at + 3u] = floatBitsToUint(d_albedo.x);
-    texture_reads_out[at + 4u] = floatBitsToUint(d_albedo.y);
-    texture_reads_out[at + 5u] = floatBitsToUint(d_albedo.z);
-    texture_reads_out[at + 6u] = floatBitsToUint(d_rough);
-}
-
-// Distributes one recorded path's adjoint delta (already divided by spp) onto the row, and its texture reads
-// from reads_at on.
-void backward_sweep(vec3 delta, uint row, uint reads_at) {
-    uint reads_end = reads_at + MAX_RECORD_DEPTH * TEXTURE_READ_FLOATS;
-    vec3 r_next = vec3(0.0); // R_{k+1}
-    for (uint j = rec_count; j > 0u; j--) {
-        RecordedVertex v = rec_vertices[j - 1u];
-        vec3 a = delta * v.throughput;
-        if (v.emitter != NONE) {
-            add3(row, slots[material_count + v.emitter], a * v.emission_mis);
-        }
-        uint albedo = slots[v.material];
-        uint roughness = slots[material_count + emitter_count + v.material];
-        uint specular = slots[2u * material_count + emitter_count + v.material];
-        // BSDF derivatives only where some requested parameter reads this material, the roughness and specular
-        // ones (a dual evaluation) only when asked for.
-        uint wanted = slots[3u * material_count + emitter_count + v.material];
-        vec3 d_albedo = vec3(0.0);
-        vec3 d_rough = vec3(0.0);
-        vec3 d_spec = vec3(0.0);
-        if (v.has_nee) {
-            add3(row, slots[material_count + v.nee_emitter], a * v.nee_f * v.nee_w_over_pdf);
-            if (wanted != WANTED_NOTHING) {
-                vec3 via_nee = a * v.nee_radiance * v.nee_w_over_pdf;
-                BsdfGrad f_grad = wanted == WANTED_ALL ? bsdf_eval_grad(v.bsdf, v.wi_local, v.nee_wo_local)
-                                      : bsdf_albedo_grad(v.bsdf, v.wi_local, v.nee_wo_local);
-                d_albedo += via_nee * f_grad.albedo;
-                d_rough += via_nee * f_grad.roughness;
-                d_spec += via_nee * f_grad.specular;
-            }
-        }
-        vec3 beta = v.has_next ? v.next_beta : vec3(0.0);
-        if (v.has_next && wanted != WANTED_NOTHING) {
-            vec3 via_path = a * r_next;
-            BsdfGrad g = wanted == WANTED_ALL ? bsdf_eval_grad(v.bsdf, v.wi_local, v.next_wo_local)
-                             : bsdf_albedo_grad(v.bsdf, v.wi_local, v.next_wo_local);
-            BsdfGrad beta_grad = bsdf_grad_scaled(g, 1.0 / (v.next_pdf * v.next_q));
-            d_albedo += via_path * beta_grad.albedo;
-            d_rough += via_path * beta_grad.roughness;
-            d_spec += via_path * beta_grad.specular;
-        }
-        add3(row, albedo, d_albedo);
-        if (roughness != NONE) {
-            grad_rows[row + roughness] += d_rough.x + d_rough.y + d_rough.z;
-        }
-        if (specular != NONE) {
-            grad_rows[row + specular] += d_spec.x + d_spec.y + d_spec.z;
-        }
-        if (slots[4u * material_count + emitter_count + v.material] != 0u) {
-            texture_read_out(reads_at, v.material, v.uv, d_albedo, d_rough.x + d_rough.y + d_rough.z);
-            reads_at += TEXTURE_READ_FLOATS;
-        }
-        r_next = v.local + beta * r_next;
-    }
-    if (texture_reads != 0u && reads_at < reads_end) {
-        texture_reads_out[reads_at] = NONE;
-    }
-}
+#include "grad/interior/material_light.glsl"
 
 // The kernel body (Rust twin: radiance_vjp): one pixel of the pass, all its samples.
 void main() {

@@ -2,7 +2,8 @@
 // hooks of render/path_trace.glsl write the record (the Rust twin's PathObserver methods). A kernel includes
 // this file before render/path_trace.glsl; the record lives in invocation-private memory, at most
 // MAX_RECORD_DEPTH vertices (the host refuses deeper paths).
-// Rust twin: psdr/src/grad/path/record.rs (the Recorder's start, hit, emission, scatter, nee, continuation).
+// Rust twin: psdr/src/grad/path/record.rs (the Recorder's start, hit, emission, scatter, nee, continuation;
+// PathRecord::radiance).
 // GLSL only: recorder_flush (stores the finished vertex; a Rust Vec is written in place).
 #ifndef PSDR_RECORD_GLSL
 #define PSDR_RECORD_GLSL
@@ -127,6 +128,15 @@ void recorder_continuation(vec3 dir, float pdf, float q, vec3 weight, vec3 wo) {
     rec_current.next_q = q;
     rec_current.next_beta = weight / q; // q is 1 before roulette: exact
     rec_current.next_wo_local = wo;
+}
+
+// The recorded path's radiance estimate, Σ_k T_k (e_k + n_k) (what the integrator returns, up to rounding).
+vec3 path_record_radiance() {
+    vec3 sum = vec3(0.0);
+    for (uint k = 0u; k < rec_count; k++) {
+        sum += rec_vertices[k].throughput * rec_vertices[k].local;
+    }
+    return sum;
 }
 
 #define OBSERVE_START(origin, dir) recorder_start(origin, dir)
