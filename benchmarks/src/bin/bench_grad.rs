@@ -5,7 +5,7 @@
 //! `central_difference` at high spp over several seeds, with its standard error.
 //!
 //! `cargo run -p psdr-benchmarks --release --bin bench_grad [-- --out DIR] [--large] [--quick] [--no-mitsuba]
-//! [--only CASE] [--chart-only CSV]`
+//! [--only CASE] [--backend cpu|vk] [--chart-only CSV]`
 //! writes DIR/grad.csv and DIR/grad.svg (default benchmarks/results). Needs benchmarks/setup_mitsuba.sh
 //! (DRJIT_LIBLLVM_PATH defaults to Debian's libLLVM 19).
 //!
@@ -346,17 +346,19 @@ struct PsdrQueue<'a> {
     jobs: std::collections::VecDeque<(usize, Option<u32>)>,
     runs: Vec<Runs>,
     evaluators: Vec<GradientEvaluator>,
+    /// Where psdr's iterations run (`--backend`); the FD truth always runs on the CPU.
+    backend: Box<dyn Backend>,
 }
 
 impl<'a> PsdrQueue<'a> {
-    fn new(case: &'a Case, loss: &'a ImageLoss) -> Self {
+    fn new(case: &'a Case, loss: &'a ImageLoss, backend: Box<dyn Backend>) -> Self {
         let points = case.psdr_sweep.len();
         let jobs = (0..points)
             .flat_map(|p| std::iter::once((p, None)).chain((0..case.seeds).map(move |s| (p, Some(s)))))
             .collect();
         let runs = (0..points).map(|_| Runs::default()).collect();
         let evaluators = (0..points).map(|_| GradientEvaluator::default()).collect();
-        PsdrQueue { case, loss, jobs, runs, evaluators }
+        PsdrQueue { case, loss, jobs, runs, evaluators, backend }
     }
 
     fn run_one(&mut self) -> anyhow::Result<()> {
@@ -371,7 +373,7 @@ impl<'a> PsdrQueue<'a> {
             self.evaluators[p] = GradientEvaluator::default();
         }
         let t = Instant::now();
-        let g = self.evaluators[p].gradient(&s, &paths, self.loss, &opts, &mut CpuBackend)?;
+        let g = self.evaluators[p].gradient(&s, &paths, self.loss, &opts, self.backend.as_mut())?;
         let secs = t.elapsed().as_secs_f64();
         if seed.is_none() {
             return Ok(());
@@ -575,6 +577,9 @@ struct Args {
     /// Seeds per method and spp (default: 4, 3 with --large); more seeds firm up the error means.
     #[arg(long)]
     seeds: Option<u32>,
+    /// Where psdr's iterations run: cpu or vk (the FD truth and Mitsuba are unaffected).
+    #[arg(long, default_value = "cpu")]
+    backend: psdr::backend::BackendKind,
 }
 
 const CSV_HEADER: &str = "case,size,param,method,spp,sppe,sppse,seeds,seconds_iter,seconds_forward,seconds_grad,\
@@ -640,7 +645,9 @@ fn main() -> anyhow::Result<()> {
                 fmt_vec(&bias)
             );
         }
-        let mut psdr = PsdrQueue::new(case, &loss);
+        let backend = psdr::backend::create_backend(args.backend)?;
+        writeln!(csv, "# {},{size}, psdr backend: {}", case.name, backend.name())?;
+        let mut psdr = PsdrQueue::new(case, &loss, backend);
         let (mut rows, mut mitsuba_rows) = (vec![], vec![]);
         let mut primal = Value::Null;
         if !args.no_mitsuba {
