@@ -222,41 +222,21 @@ impl GradLayout {
         }
         let has =
             |list: &[(u32, u32, usize)], t: Option<usize>| t.is_some_and(|t| list.iter().any(|e| e.0 as usize == t));
-        l.material_wanted = scene
-            .materials
-            .iter()
-            .enumerate()
-            .map(|(m, mat)| {
-                let albedo_tex = if let Color::Texture(t) = mat.albedo { Some(t) } else { None };
-                let rough_tex = if let Scalar::Texture(t) = mat.roughness { Some(t) } else { None };
-                let all = [l.roughness[m], l.specular[m], l.uv_scale[m], l.uv_rotation[m]].iter().any(Option::is_some)
-                    || has(&l.rough_texels, rough_tex);
-                if all {
-                    Wanted::All
-                } else if l.albedo[m].is_some()
-                    || has(&l.texels, albedo_tex)
-                    || albedo_tex.is_some_and(|t| l.albedo_maps.iter().any(|e| e.0 as usize == t))
-                {
-                    Wanted::Albedo
-                } else {
-                    Wanted::Nothing
-                }
-            })
-            .collect();
-        l.texture_reads = scene
-            .materials
-            .iter()
-            .enumerate()
-            .map(|(m, mat)| {
-                let albedo_tex = if let Color::Texture(t) = mat.albedo { Some(t) } else { None };
-                let rough_tex = if let Scalar::Texture(t) = mat.roughness { Some(t) } else { None };
-                l.uv_scale[m].is_some()
-                    || l.uv_rotation[m].is_some()
-                    || has(&l.texels, albedo_tex)
-                    || albedo_tex.is_some_and(|t| l.albedo_maps.iter().any(|e| e.0 as usize == t))
-                    || has(&l.rough_texels, rough_tex)
-            })
-            .collect();
+        for (m, mat) in scene.materials.iter().enumerate() {
+            let albedo_tex = if let Color::Texture(t) = mat.albedo { Some(t) } else { None };
+            let rough_tex = if let Scalar::Texture(t) = mat.roughness { Some(t) } else { None };
+            let uv = l.uv_scale[m].is_some() || l.uv_rotation[m].is_some();
+            let albedo_map = albedo_tex.is_some_and(|t| l.albedo_maps.iter().any(|e| e.0 as usize == t));
+            let (albedo_texels, rough_texels) = (has(&l.texels, albedo_tex), has(&l.rough_texels, rough_tex));
+            l.material_wanted.push(if l.roughness[m].is_some() || l.specular[m].is_some() || uv || rough_texels {
+                Wanted::All
+            } else if l.albedo[m].is_some() || albedo_texels || albedo_map {
+                Wanted::Albedo
+            } else {
+                Wanted::Nothing
+            });
+            l.texture_reads.push(uv || albedo_texels || albedo_map || rough_texels);
+        }
         l.shading_normal_wanted =
             !l.normal_texels.is_empty()
                 || scene.materials.iter().enumerate().any(|(m, mat)| {
