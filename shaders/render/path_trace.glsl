@@ -41,8 +41,9 @@ bool unoccluded(vec3 p, vec3 ng, vec3 q, vec3 nq) {
     return dist > 0.0 && !trace_occluded(o, v / dist, dist);
 }
 
-// The integrator from the ray (origin, dir) on, drawing bounce numbers from s.
-PathSample trace_from(Sampler s, vec3 origin, vec3 dir) {
+// The integrator from the ray (origin, dir) on, drawing bounce numbers from s, with the depth, roulette and light
+// settings of fp (a sub-path from a boundary sample has its own depth).
+PathSample trace_from(FrameParams fp, Sampler s, vec3 origin, vec3 dir) {
     CameraGpu cam = camera[0];
     OBSERVE_START(origin, dir);
     PathSample out_ = PathSample(vec3(0.0), 0.0, vec3(0.0), vec3(0.0), NONE, 0u);
@@ -138,7 +139,7 @@ PathSample trace_path(uint px, uint py, uint sample_) {
     Sampler s = Sampler(fp.seed, py * cam.width + px, sample_);
     vec2 jitter = sampler_get2(s, DIM_PIXEL_X);
     vec3 dir = camera_ray(cam, float(px) + jitter.x, float(py) + jitter.y);
-    return trace_from(s, cam.origin, dir);
+    return trace_from(fp, s, cam.origin, dir);
 }
 
 #endif

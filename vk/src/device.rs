@@ -158,7 +158,8 @@ pub(crate) fn create_logical_device(
         .shader_shared_float32_atomics(caps.float32_atomic_shared)
         .shader_shared_float32_atomic_add(caps.float32_atomic_add_shared);
     let mut v12 = vk::PhysicalDeviceVulkan12Features::default().scalar_block_layout(caps.scalar_block_layout);
-    let features = vk::PhysicalDeviceFeatures::default().shader_int64(caps.shader_int64);
+    let features =
+        vk::PhysicalDeviceFeatures::default().shader_int64(caps.shader_int64).shader_float64(caps.shader_float64);
     let mut features2 = vk::PhysicalDeviceFeatures2::default().features(features).push_next(&mut v12);
     if caps.atomic_float_extension {
         extensions.push(ext::shader_atomic_float::NAME.as_ptr());

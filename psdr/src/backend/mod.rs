@@ -79,15 +79,17 @@ pub trait Backend {
     ) -> Result<Vec<f64>> {
         Ok(crate::grad::radiance_primary_boundary(scene, data, settings, pose, adjoint, edge_samples))
     }
-    /// The ray-form interior term of radiance for the pose entries of `pose` on a device, or `None` to have
-    /// `grad::radiance_pose_vjp` compute it on the CPU (the default, and a device's answer where its kernels do
-    /// not cover the entries).
+    /// The ray-form interior term of radiance for the pose entries of `pose`, with the secondary boundary when
+    /// `secondary_samples` > 0, on a device; or `None` to have `grad::radiance_pose_vjp` compute them on the CPU
+    /// (the default, and a device's answer where its kernels do not cover the entries).
     fn radiance_pose_interior(
         &mut self,
+        _scene: &Scene,
         _data: &SceneData,
         _settings: &RenderSettings,
         _pose: &PoseLayout,
         _adjoint: &[f32],
+        _secondary_samples: u32,
     ) -> Result<Option<Vec<f64>>> {
         Ok(None)
     }

@@ -99,6 +99,7 @@ impl VkBackend {
                 ctx,
                 &self.aov_vjp,
                 &inputs,
+                &[],
                 pass(SILHOUETTES),
                 edge_samples as usize,
                 per_pass,
@@ -108,7 +109,7 @@ impl VkBackend {
         let mut interior = vec![0.0f64; len];
         if adjoints.depth.is_some() {
             let per_pass = (self.pass_path_samples / u64::from(settings.spp.max(1))).max(1) as usize;
-            rows_in_order(ctx, &self.aov_vjp, &inputs, pass(DEPTH_INTERIOR), pixels, per_pass, &mut interior)?;
+            rows_in_order(ctx, &self.aov_vjp, &inputs, &[], pass(DEPTH_INTERIOR), pixels, per_pass, &mut interior)?;
         }
         Ok(Some(boundary.iter().zip(&interior).map(|(b, i)| b + i).collect()))
     }

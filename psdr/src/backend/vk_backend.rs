@@ -26,6 +26,9 @@ pub struct VkBackend {
     pub(super) aov_vjp: Kernel<super::vk_aov::AovParams>,
     /// The primary boundary of radiance for poses (shaders/grad/vjp/radiance_pose.comp).
     pub(super) radiance_pose_vjp: Kernel<super::vk_radiance_pose::RadiancePoseParams>,
+    /// The same with the secondary boundary (shaders/grad/vjp/radiance_pose_secondary.comp); `None` on a device
+    /// without shaderFloat64.
+    pub(super) radiance_pose_secondary_vjp: Option<Kernel<super::vk_radiance_pose::RadiancePoseParams>>,
     pub(super) pass_path_samples: u64,
 }
 
@@ -74,6 +77,16 @@ impl VkBackend {
         let words =
             kernel_words(shader_dir, "grad/vjp/radiance_pose", psdr_vk::include_spirv!("grad/vjp/radiance_pose"))?;
         let radiance_pose_vjp = Kernel::new(&ctx, "radiance_pose_vjp", &words, 14).map_err(backend_error)?;
+        let radiance_pose_secondary_vjp = if ctx.capabilities().shader_float64 {
+            let words = kernel_words(
+                shader_dir,
+                "grad/vjp/radiance_pose_secondary",
+                psdr_vk::include_spirv!("grad/vjp/radiance_pose_secondary"),
+            )?;
+            Some(Kernel::new(&ctx, "radiance_pose_secondary_vjp", &words, 17).map_err(backend_error)?)
+        } else {
+            None
+        };
         Ok(VkBackend {
             ctx,
             path_trace,
@@ -81,6 +94,7 @@ impl VkBackend {
             fused_l2_vjp,
             aov_vjp,
             radiance_pose_vjp,
+            radiance_pose_secondary_vjp,
             pass_path_samples: PASS_PATH_SAMPLES,
         })
     }
@@ -170,12 +184,14 @@ impl Backend for VkBackend {
     /// On the device for pose components; `None` (the CPU) for vertices.
     fn radiance_pose_interior(
         &mut self,
+        scene: &crate::scene::Scene,
         data: &SceneData,
         settings: &RenderSettings,
         pose: &crate::grad::PoseLayout,
         adjoint: &[f32],
+        secondary_samples: u32,
     ) -> Result<Option<Vec<f64>>> {
-        self.radiance_pose_interior_on_device(data, settings, pose, adjoint)
+        self.radiance_pose_interior_on_device(scene, data, settings, pose, adjoint, secondary_samples)
     }
 
     fn name(&self) -> String {

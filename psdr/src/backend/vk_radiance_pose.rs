@@ -2,8 +2,8 @@
 //! GLSL twin of grad/vjp/radiance_pose.rs): the primary boundary (silhouettes and creases chosen on the host by
 //! `PrimaryEdges::build`, as the CPU does, sampled on the device, two paths of the integrator per edge sample;
 //! one row per sample) and the ray-form interior term (each pixel's paths recorded and replayed in dual numbers
-//! along every pose component that touches them; one row per pixel); rows summed in order (`vk_rows`). The
-//! secondary boundary and vertex parameters stay on the CPU.
+//! along every pose component that touches them, and with them the secondary boundary, edges drawn from the
+//! host's edge trees; one row per pixel); rows summed in order (`vk_rows`). Vertex parameters stay on the CPU.
 
 use super::vk_adjoint::MAX_RECORD_DEPTH;
 use super::vk_backend::{upload, upload_scene, VkBackend};
@@ -11,9 +11,10 @@ use super::vk_primary::{edge_words, pose_words};
 use super::vk_rows::rows_in_order;
 use crate::error::{Error, Result};
 use crate::grad::boundary::primary::PrimaryEdges;
+use crate::grad::boundary::secondary::SecondaryEdges;
 use crate::grad::PoseLayout;
 use crate::render::cpu::frame_params;
-use crate::render::layout::FrameParams;
+use crate::render::layout::{FrameParams, NONE};
 use crate::render::SceneData;
 use crate::scene::{RenderSettings, Scene};
 use bytemuck::{Pod, Zeroable};
@@ -34,7 +35,17 @@ pub struct RadiancePoseParams {
     pub edge_samples: u32,
     /// PRIMARY (0) or INTERIOR (1).
     pub mode: u32,
+    /// Secondary edge samples per scattering vertex (the secondary kernel only), the roots of the moving and
+    /// static edge trees (NONE when empty) and the number of moving edges.
+    pub secondary_samples: u32,
+    pub moving_root: u32,
+    pub static_root: u32,
+    pub moving_edges: u32,
 }
+
+/// Pose entries whose vertex velocities the secondary kernel keeps per path (MAX_ACTIVE in
+/// shaders/grad/interior/geometry.glsl).
+pub const MAX_ACTIVE: usize = 32;
 
 const PRIMARY: u32 = 0;
 const INTERIOR: u32 = 1;
@@ -82,20 +93,30 @@ impl VkBackend {
         // Two paths per edge sample.
         let per_pass = (self.pass_path_samples / 2).max(1) as usize;
         let push = |begin, count| RadiancePoseParams { begin, count, mode: PRIMARY, ..params };
-        rows_in_order(ctx, &self.radiance_pose_vjp, &inputs, push, edge_samples as usize, per_pass, &mut grad)?;
+        rows_in_order(ctx, &self.radiance_pose_vjp, &inputs, &[], push, edge_samples as usize, per_pass, &mut grad)?;
         Ok(Some(grad))
     }
 
-    /// The interior term of `grad::radiance_pose_vjp` (its ray-form replay) on the device when every pose entry
-    /// is a pose component; `Ok(None)` when some are vertices.
+    /// The interior term of `grad::radiance_pose_vjp` (its ray-form replay) on the device, with the secondary
+    /// boundary (`secondary_samples` per scattering vertex) when it is asked for; `Ok(None)` when some entry is
+    /// a vertex's, when the secondary term is asked for with more than MAX_ACTIVE entries, or when the device
+    /// lacks shaderFloat64 (the secondary kernel's edge-tree descent is in double precision).
     pub fn radiance_pose_interior_on_device(
         &mut self,
+        scene: &Scene,
         d: &SceneData,
         settings: &RenderSettings,
         pose: &PoseLayout,
         adjoint: &[f32],
+        secondary_samples: u32,
     ) -> Result<Option<Vec<f64>>> {
         let Some(pose_words) = pose_words(pose) else { return Ok(None) };
+        if secondary_samples > 0 && (pose.entries.len() > MAX_ACTIVE || self.radiance_pose_secondary_vjp.is_none()) {
+            if self.radiance_pose_secondary_vjp.is_none() {
+                note_once("the Vulkan device lacks shaderFloat64, which the secondary boundary kernel needs: it runs on the CPU");
+            }
+            return Ok(None);
+        }
         let pixels = (d.camera.width * d.camera.height) as usize;
         if adjoint.len() != pixels * 3 {
             return Err(Error::Invalid(format!("adjoint image has {} values, expected {}", adjoint.len(), pixels * 3)));
@@ -119,17 +140,41 @@ impl VkBackend {
             Box::new(upload(ctx, "adjoint", adjoint)?) as Box<dyn StorageBinding>,
         ];
         let fp = frame_params(d, settings);
-        let params = RadiancePoseParams {
+        let mut params = RadiancePoseParams {
             fp,
             grad_len: pose.len as u32,
             pose_entry_count: pose.entries.len() as u32,
             mode: INTERIOR,
+            secondary_samples,
+            moving_root: NONE,
+            static_root: NONE,
             ..Default::default()
         };
         let inputs: Vec<&dyn StorageBinding> = scene_bufs.iter().chain(&bufs).map(|b| b.as_ref()).collect();
         let per_pass = (self.pass_path_samples / u64::from(fp.spp.max(1))).max(1) as usize;
+        if secondary_samples == 0 {
+            let push = |begin, count| RadiancePoseParams { begin, count, ..params };
+            rows_in_order(ctx, &self.radiance_pose_vjp, &inputs, &[], push, pixels, per_pass, &mut grad)?;
+            return Ok(Some(grad));
+        }
+        let words = SecondaryEdges::build(scene, |o| pose.moves(o)).gpu_words();
+        (params.moving_root, params.static_root, params.moving_edges) =
+            (words.moving_root, words.static_root, words.moving);
+        let tail = [
+            Box::new(upload(ctx, "sec_edge_words", &words.edges)?) as Box<dyn StorageBinding>,
+            Box::new(upload(ctx, "tree_words", &words.nodes)?) as Box<dyn StorageBinding>,
+            Box::new(upload(ctx, "edge_order", &words.order)?) as Box<dyn StorageBinding>,
+        ];
+        let tail: Vec<&dyn StorageBinding> = tail.iter().map(|b| b.as_ref()).collect();
+        let kernel = self.radiance_pose_secondary_vjp.as_ref().expect("checked above");
         let push = |begin, count| RadiancePoseParams { begin, count, ..params };
-        rows_in_order(ctx, &self.radiance_pose_vjp, &inputs, push, pixels, per_pass, &mut grad)?;
+        rows_in_order(ctx, kernel, &inputs, &tail, push, pixels, per_pass, &mut grad)?;
         Ok(Some(grad))
     }
+}
+
+/// Prints `msg` on stderr the first time it is asked to.
+fn note_once(msg: &str) {
+    static SAID: std::sync::Once = std::sync::Once::new();
+    SAID.call_once(|| eprintln!("psdr: {msg}"));
 }

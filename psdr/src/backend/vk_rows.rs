@@ -11,12 +11,14 @@ use psdr_vk::{Buffer, Context, Groups, Kernel, StorageBinding};
 pub const MAX_ROWS_BYTES: u64 = 64 << 20;
 
 /// Runs `kernel` over invocations 0..n in passes of at most `per_pass` (fewer when the rows would not fit
-/// MAX_ROWS_BYTES), binding `inputs` and then the rows buffer, with push constants `push(begin, count)`; adds
-/// every row (out.len() floats) into `out` in order.
+/// MAX_ROWS_BYTES), binding `inputs`, the rows buffer, then `tail`, with push constants `push(begin, count)`;
+/// adds every row (out.len() floats) into `out` in order.
+#[allow(clippy::too_many_arguments)]
 pub fn rows_in_order<P: Pod>(
     ctx: &Context,
     kernel: &Kernel<P>,
     inputs: &[&dyn StorageBinding],
+    tail: &[&dyn StorageBinding],
     push: impl Fn(u32, u32) -> P,
     n: usize,
     per_pass: usize,
@@ -31,7 +33,8 @@ pub fn rows_in_order<P: Pod>(
     let mut begin = 0;
     while begin < n {
         let count = per_pass.min(n - begin);
-        let bindings: Vec<&dyn StorageBinding> = inputs.iter().copied().chain([&rows as &dyn StorageBinding]).collect();
+        let bindings: Vec<&dyn StorageBinding> =
+            inputs.iter().copied().chain([&rows as &dyn StorageBinding]).chain(tail.iter().copied()).collect();
         kernel
             .dispatch(&bindings, &push(begin as u32, count as u32), Groups::folded_2d(count as u64, 64))
             .map_err(backend_error)?;

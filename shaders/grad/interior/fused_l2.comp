@@ -40,7 +40,7 @@ void record_half(uint seed, uint px, uint py, uint k) {
     Sampler s = Sampler(seed, py * cam.width + px, k);
     vec2 jitter = sampler_get2(s, DIM_PIXEL_X);
     rec_count = 0u;
-    trace_from(s, cam.origin, camera_ray(cam, float(px) + jitter.x, float(py) + jitter.y));
+    trace_from(fp, s, cam.origin, camera_ray(cam, float(px) + jitter.x, float(py) + jitter.y));
     recorder_flush();
 }
 

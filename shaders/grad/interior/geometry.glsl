@@ -18,6 +18,15 @@
 #include "grad/path/velocity.glsl"
 #include "grad/path/record.glsl"
 
+// At most this many pose entries touch one path when their vertex velocities are kept for the secondary
+// boundary (WITH_SECONDARY; the host checks the entry count).
+const uint MAX_ACTIVE = 32u;
+// The entries that touch the recorded path, and dx_k/dθ of its vertices under each (slot j, vertex k at
+// j * MAX_RECORD_DEPTH + k), written by replay_radiance.
+uint active_entries[MAX_ACTIVE];
+uint active_count;
+vec3 replay_velocity[MAX_ACTIVE * MAX_RECORD_DEPTH];
+
 // The moving pose component being differentiated: its object and velocity field.
 struct Tangent {
     uint object;
@@ -152,8 +161,9 @@ DualPoint dual_point(Tangent tg, uint ti, DualTriangle tri, D u, D v, vec3 incom
     return DualPoint(ns, bsdf);
 }
 
-// d(path radiance)/dθ along one pose component of the recorded path (rec_*), ray form.
-vec3 replay_radiance(Tangent tg) {
+// d(path radiance)/dθ along one pose component of the recorded path (rec_*), ray form; with WITH_SECONDARY the
+// vertices' velocities go to replay_velocity at `slot`.
+vec3 replay_radiance(Tangent tg, uint slot) {
     D3 throughput = d3_c(vec3(1.0));
     D3 radiance = D3(vec3(0.0), vec3(0.0));
     D3 origin = d3_c(rec_origin);
@@ -166,6 +176,9 @@ vec3 replay_radiance(Tangent tg) {
         D vv;
         dual_triangle_intersect(tri, origin, dir, t, u, vv);
         D3 p = dual_triangle_point(tri, u, vv);
+#ifdef WITH_SECONDARY
+        replay_velocity[slot * MAX_RECORD_DEPTH + k] = p.d;
+#endif
         DualPoint sp = dual_point(tg, v.triangle, tri, u, vv, dir);
         D3 wi = d3_c(-dir);
         if (v.emitter != NONE) {

@@ -23,6 +23,8 @@ struct RecordedVertex {
     uint material;
     vec2 uv;
     uint triangle;
+    float u;
+    float v;
     vec3 emission;
     uint emitter;
     float emission_mis;
@@ -50,6 +52,9 @@ uint rec_count;
 // The camera ray the path starts with.
 vec3 rec_origin;
 vec3 rec_dir;
+// False while a kernel traces paths it must not record (a boundary sample's side paths, which would overwrite
+// the camera path being swept).
+bool rec_enabled = true;
 // The vertex whose events are arriving. Events write its fields here and recorder_flush stores it whole into
 // rec_vertices: field writes through a dynamic index into the private array were dropped by lavapipe's
 // compiler (Mesa 22.3) when the array was read back in another loop, while whole-element stores survive.
@@ -74,6 +79,8 @@ void recorder_hit(Hit hit, SurfacePoint sp, vec3 beta) {
     v.material = triangles[hit.triangle].material;
     v.uv = sp.uv;
     v.triangle = hit.triangle;
+    v.u = hit.u;
+    v.v = hit.v;
     v.emission = vec3(0.0);
     v.emitter = NONE;
     v.emission_mis = 0.0;
@@ -139,11 +146,11 @@ vec3 path_record_radiance() {
     return sum;
 }
 
-#define OBSERVE_START(origin, dir) recorder_start(origin, dir)
-#define OBSERVE_HIT(hit, sp, beta) recorder_hit(hit, sp, beta)
-#define OBSERVE_EMISSION(emitter, le, mis) recorder_emission(emitter, le, mis)
-#define OBSERVE_SCATTER(wi) recorder_scatter(wi)
-#define OBSERVE_NEE(u_select, wl, emitter, radiance, w_over_pdf, f, wo) recorder_nee(u_select, wl, emitter, radiance, w_over_pdf, f, wo)
-#define OBSERVE_CONTINUATION(dir, pdf, q, weight, wo) recorder_continuation(dir, pdf, q, weight, wo)
+#define OBSERVE_START(origin, dir) if (rec_enabled) recorder_start(origin, dir)
+#define OBSERVE_HIT(hit, sp, beta) if (rec_enabled) recorder_hit(hit, sp, beta)
+#define OBSERVE_EMISSION(emitter, le, mis) if (rec_enabled) recorder_emission(emitter, le, mis)
+#define OBSERVE_SCATTER(wi) if (rec_enabled) recorder_scatter(wi)
+#define OBSERVE_NEE(u_select, wl, emitter, radiance, w_over_pdf, f, wo) if (rec_enabled) recorder_nee(u_select, wl, emitter, radiance, w_over_pdf, f, wo)
+#define OBSERVE_CONTINUATION(dir, pdf, q, weight, wo) if (rec_enabled) recorder_continuation(dir, pdf, q, weight, wo)
 
 #endif

@@ -22,6 +22,9 @@ struct Cone {
     crease: bool,
 }
 
+/// Words per node in `EdgeTree::append_gpu_words`.
+pub const NODE_WORDS: usize = 16;
+
 pub struct EdgeTree {
     nodes: Vec<BvhNode>,
     cones: Vec<Cone>,
@@ -120,6 +123,30 @@ impl EdgeTree {
     }
 
     /// The whole tree's importance from x (to choose between trees).
+    /// The tree as the GPU reads it (shaders/grad/boundary/edge_tree.glsl), appended to `nodes` (NODE_WORDS a
+    /// node: min, first index, max, primitive count, cone axis, spread, flags 1 boundary / 2 crease, length)
+    /// and `order` (edge indices), child and leaf indices made global; returns the root's index, or NONE.
+    pub fn append_gpu_words(&self, nodes: &mut Vec<u32>, order: &mut Vec<u32>) -> u32 {
+        if self.nodes.is_empty() {
+            return u32::MAX;
+        }
+        let (node_base, order_base) = ((nodes.len() / NODE_WORDS) as u32, order.len() as u32);
+        for (i, n) in self.nodes.iter().enumerate() {
+            let c = &self.cones[i];
+            let first = if n.prim_count > 0 { n.first_index + order_base } else { n.first_index + node_base };
+            let flags = u32::from(c.boundary) | (u32::from(c.crease) << 1);
+            nodes.extend(n.min.to_array().map(f32::to_bits));
+            nodes.push(first);
+            nodes.extend(n.max.to_array().map(f32::to_bits));
+            nodes.push(n.prim_count);
+            nodes.extend(c.axis.to_array().map(f32::to_bits));
+            nodes.push(c.spread.to_bits());
+            nodes.extend([flags, self.lengths[i].to_bits(), 0, 0]);
+        }
+        order.extend_from_slice(&self.order);
+        node_base
+    }
+
     pub fn root_importance(&self, x: Vec3, ng: Vec3) -> f32 {
         if self.nodes.is_empty() {
             0.0

@@ -62,6 +62,43 @@ impl SecondaryEdges {
     pub fn is_empty(&self) -> bool {
         self.moving == 0
     }
+
+    /// The edges and trees as the GPU reads them (shaders/grad/boundary/secondary.glsl).
+    pub fn gpu_words(&self) -> SecondaryWords {
+        let mut edges = Vec::with_capacity(self.edges.len() * MESH_EDGE_WORDS);
+        for e in &self.edges {
+            let (two, n1, n2) = match e.faces.as_slice() {
+                [f1, f2] => (true, f1.normal, f2.normal),
+                _ => (false, Vec3::ZERO, Vec3::ZERO),
+            };
+            edges.extend(e.a.to_array().map(f32::to_bits));
+            edges.push(e.object);
+            edges.extend(e.b.to_array().map(f32::to_bits));
+            edges.push(u32::from(two) | (u32::from(e.is_crease()) << 1));
+            edges.extend(n1.to_array().map(f32::to_bits));
+            edges.push(e.strength().to_bits());
+            edges.extend(n2.to_array().map(f32::to_bits));
+            edges.push(0);
+        }
+        let (mut nodes, mut order) = (vec![], vec![]);
+        let moving_root = self.moving_tree.append_gpu_words(&mut nodes, &mut order);
+        let static_root = self.static_tree.append_gpu_words(&mut nodes, &mut order);
+        SecondaryWords { edges, nodes, order, moving_root, static_root, moving: self.moving as u32 }
+    }
+}
+
+/// Words per edge in `SecondaryEdges::gpu_words`: a, object, b, flags (1 two faces, 2 crease), the first face's
+/// normal, strength, the second face's normal, unused.
+pub const MESH_EDGE_WORDS: usize = 16;
+
+/// `SecondaryEdges` as words for the GPU; roots are NONE for an empty tree.
+pub struct SecondaryWords {
+    pub edges: Vec<u32>,
+    pub nodes: Vec<u32>,
+    pub order: Vec<u32>,
+    pub moving_root: u32,
+    pub static_root: u32,
+    pub moving: u32,
 }
 
 /// One recorded camera path and what the boundary sampler needs with it.

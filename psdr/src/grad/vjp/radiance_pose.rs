@@ -39,10 +39,9 @@ pub fn radiance_pose_vjp(
 ) -> Result<Vec<f64>> {
     let (w, h) = (d.camera.width as usize, d.camera.height as usize);
     check_adjoint(adjoint, w * h * 3)?;
-    // The secondary boundary reads each path's replayed vertex velocities, so a device computes the interior
-    // alone only when the secondary term is off; otherwise both run here, path by path.
-    let on_device =
-        if samples.secondary == 0 { backend.radiance_pose_interior(d, settings, pose, adjoint)? } else { None };
+    // The secondary boundary reads each path's replayed vertex velocities: both run together, on a device
+    // where its kernels cover the entries, else here, path by path.
+    let on_device = backend.radiance_pose_interior(scene, d, settings, pose, adjoint, samples.secondary)?;
     let mut grad = match on_device {
         Some(g) => g,
         None => interior_and_secondary(scene, d, settings, pose, adjoint, samples.secondary),

@@ -1,0 +1,187 @@
+// Secondary boundary terms at the vertices of a recorded camera path (see the Rust twin for the estimator): at
+// each scattering vertex, `count` edges drawn from the edge trees (the moving edges' and, when the vertex itself
+// moves, the static edges'), a point along each, the scattered radiance on both sides from two sub-paths that
+// share their random numbers, and the relative motion of edge point and vertex. Vertices on turning surfaces
+// also get horizon samples (grad/boundary/horizon.glsl). The including kernel provides the recorded path, the
+// pose entries (grad/boundary/primary.glsl), the active entries and their replayed vertex velocities
+// (grad/interior/geometry.glsl), the edge and tree buffers, grad_rows and the push constants moving_root,
+// static_root and moving_edges.
+// Rust twin: psdr/src/grad/boundary/secondary.rs (secondary_boundary).
+// GLSL only: edge_weight, active_slot (the closure secondary_boundary gives the tree; an entry's place among
+// the active ones).
+#ifndef PSDR_SECONDARY_GLSL
+#define PSDR_SECONDARY_GLSL
+#include "render/shading.glsl"
+#include "render/bsdf.glsl"
+#include "grad/boundary/mesh_edges.glsl"
+#include "grad/boundary/edge_tree.glsl"
+
+// Angular offset of the two side directions from an edge (radians), the clear part of the way to an edge point,
+// and the seed tweaks of secondary edge and horizon samples.
+const float SECONDARY_SIDE_EPS = 1e-4;
+const float HIDDEN_MARGIN = 1e-3;
+const uint SECONDARY_SEED = 0xbb67ae85u;
+const uint HORIZON_SEED = 0x3c6ef372u;
+
+// The turning entries of the vertex being sampled (horizon_boundary reads them).
+uint turn_at[MAX_ACTIVE];
+vec3 turn_dn[MAX_ACTIVE];
+
+#include "grad/boundary/horizon.glsl"
+
+// The exact weight of an edge seen from x above the plane of ng: its approximate arc length on the sphere around
+// x times its strength, zero unless it can be a silhouette or a crease seen from x.
+float edge_weight(uint i, vec3 x, vec3 ng) {
+    MeshEdge e = mesh_edge(i);
+    bool above = dot3(ng, e.a - x) > 0.0 || dot3(ng, e.b - x) > 0.0;
+    bool creased = e.crease && dot3(e.n1, x - e.a) > 0.0 && dot3(e.n2, x - e.a) > 0.0;
+    bool silhouette = mesh_edge_is_silhouette_from(e, x);
+    if (!(above && (silhouette || creased))) {
+        return 0.0;
+    }
+    vec3 mid = 0.5 * (e.a + e.b) - x;
+    float r = length3(mid);
+    vec3 om = mid / r;
+    vec3 ab = e.b - e.a;
+    float strength = silhouette ? 1.0 : e.strength;
+    float w = length3(ab - om * dot3(om, ab)) / r * strength;
+    return (isnan(w) || isinf(w)) ? 0.0 : w;
+}
+
+// The place of pose entry e among the path's active entries, or NONE.
+uint active_slot(uint e) {
+    for (uint j = 0u; j < active_count; j++) {
+        if (active_entries[j] == e) {
+            return j;
+        }
+    }
+    return NONE;
+}
+
+void secondary_boundary(vec3 delta, uint seed, uint pixel, uint sample_, uint count, uint row) {
+    if (moving_edges == 0u) {
+        return;
+    }
+    vec3 prev_p = rec_origin;
+    for (uint k = 0u; k < rec_count; k++) {
+        RecordedVertex v = rec_vertices[k];
+        TriangleGeom tri = triangles[v.triangle];
+        vec3 p = tri.v0 + tri.e1 * v.u + tri.e2 * v.v;
+        vec3 incoming = k == 0u ? rec_dir : normalize3(p - prev_p);
+        prev_p = p;
+        // Only vertices that scatter (the primal stops before the last allowed vertex).
+        if (k + 1u >= fp.max_depth) {
+            break;
+        }
+        SurfacePoint sp = surface_point(v.triangle, v.u, v.v, incoming);
+        vec3 wi = to_local(sp, -incoming);
+        FrameParams sub_fp = fp;
+        sub_fp.max_depth = fp.max_depth - (k + 1u);
+        sub_fp.rr_depth = fp.rr_depth > k + 1u ? fp.rr_depth - (k + 1u) : 0u;
+        vec3 a = delta * v.throughput;
+        if (has_horizon_jump(v.triangle)) {
+            uint turn_count = 0u;
+            for (uint j = 0u; j < active_count; j++) {
+                PoseEntry entry = pose_entry(active_entries[j]);
+                vec3 dn = face_normal_velocity(v.triangle, entry.object, entry.field, sp.ng);
+                if (dn != vec3(0.0)) {
+                    turn_at[turn_count] = entry.at;
+                    turn_dn[turn_count] = dn;
+                    turn_count += 1u;
+                }
+            }
+            if (turn_count > 0u) {
+                horizon_boundary(sp, wi, a, sub_fp, seed ^ HORIZON_SEED, pixel, sample_ * 4096u + k * 64u, count,
+                                 turn_count, row);
+            }
+        }
+        // A vertex moves when its triangle or any earlier vertex does (ray form); then every edge moves relative
+        // to it, else only the moving ones.
+        bool x_moves = false;
+        for (uint j = 0u; j < active_count; j++) {
+            x_moves = x_moves || replay_velocity[j * MAX_RECORD_DEPTH + k] != vec3(0.0);
+        }
+        float wm = edge_tree_root_importance(moving_root, sp.p, sp.ng);
+        float ws = x_moves ? edge_tree_root_importance(static_root, sp.p, sp.ng) : 0.0;
+        if (isnan(wm + ws) || wm + ws <= 0.0) {
+            continue;
+        }
+        float p_moving = wm / (wm + ws);
+        for (uint j = 0u; j < count; j++) {
+            Sampler es = Sampler(seed ^ SECONDARY_SEED, pixel, sample_ * 4096u + k * 64u + j);
+            double u = double(sampler_get(es, 0u));
+            uint edge;
+            float p_edge;
+            bool drawn;
+            if (u < double(p_moving)) {
+                drawn = edge_tree_sample(moving_root, sp.p, sp.ng, u / double(p_moving), edge, p_edge);
+                p_edge = p_edge * p_moving;
+            } else {
+                double um = min((u - double(p_moving)) / (1.0LF - double(p_moving)), 1.0LF - 2.220446049250313e-16LF);
+                drawn = edge_tree_sample(static_root, sp.p, sp.ng, um, edge, p_edge);
+                p_edge = p_edge * (1.0 - p_moving);
+            }
+            if (!drawn || isnan(p_edge) || p_edge <= 0.0) {
+                continue;
+            }
+            MeshEdge e = mesh_edge(edge);
+            float t = sampler_get(es, 1u);
+            vec3 q = e.a + (e.b - e.a) * t;
+            vec3 to = q - sp.p;
+            float r = length3(to);
+            if (isnan(r) || r <= 0.0) {
+                continue;
+            }
+            vec3 om = to / r;
+            vec3 ab = e.b - e.a;
+            vec3 tau = (ab - om * dot3(om, ab)) / r; // dω/dt along the edge
+            vec3 n_hat = cross3(om, tau);
+            float n_len = length3(n_hat);
+            if (isnan(n_len) || n_len <= 0.0) {
+                continue;
+            }
+            n_hat = n_hat / n_len;
+            // An edge point hidden from x has both sides see the occluder: no jump, one shadow ray.
+            vec3 o = offset_origin(sp.p, sp.ng, om);
+            if (trace_occluded(o, om, length3(q - o) * (1.0 - HIDDEN_MARGIN))) {
+                continue;
+            }
+            vec3 jump = vec3(0.0);
+            for (int side = 0; side < 2; side++) {
+                float sign_ = side == 0 ? -1.0 : 1.0;
+                vec3 w = normalize3(om + n_hat * (sign_ * SECONDARY_SIDE_EPS));
+                vec3 f = bsdf_eval(sp.bsdf, wi, to_local(sp, w));
+                if (f == vec3(0.0)) {
+                    continue;
+                }
+                rec_enabled = false;
+                vec3 l = trace_from(sub_fp, es, offset_origin(sp.p, sp.ng, w), w).radiance;
+                rec_enabled = true;
+                jump += (side == 0 ? 1.0 : -1.0) * (f * l);
+            }
+            if (jump == vec3(0.0)) {
+                continue;
+            }
+            float scale = dot3(a, jump) * length3(tau) / (p_edge * float(count));
+            // Entries that move x or the edge point.
+            for (uint i = 0u; i < pose_entry_count; i++) {
+                PoseEntry entry = pose_entry(i);
+                uint slot = active_slot(i);
+                if (slot == NONE && entry.object != e.object) {
+                    continue;
+                }
+                // Velocity of the edge point (a material point) relative to x (a sliding ray-form vertex).
+                vec3 edge_velocity = e.object == entry.object ? affine_velocity_at(entry.field, q) : vec3(0.0);
+                vec3 x_velocity = slot != NONE ? replay_velocity[slot * MAX_RECORD_DEPTH + k] : vec3(0.0);
+                vec3 rel = edge_velocity - x_velocity;
+                if (rel == vec3(0.0)) {
+                    continue;
+                }
+                vec3 v_dir = (rel - om * dot3(om, rel)) / r;
+                grad_rows[row + entry.at] += scale * dot3(v_dir, n_hat);
+            }
+        }
+    }
+}
+
+#endif
