@@ -141,8 +141,10 @@ fn paths_that_do_not_flip_give_the_same_gradient() {
 
 /// Texture-space parameters: the kernel writes each vertex's texture reads and the host carries them into
 /// texels, whole procedural maps (then through the graph's backward) and uv transforms with the CPU's own
-/// `texture_read_adjoint`. A floor with a 4x4 albedo and roughness texture (large texels) and a uv transform,
-/// and a floor of procedural oak planks (its graph parameters, tint, uv transform), each with the constants.
+/// `texture_read_adjoint` and `normal_read_adjoint`. A floor with a 4x4 albedo and roughness texture (large
+/// texels) and a uv transform; a glossy floor with a 4x4 normal map and a uv transform (the map's texels, and the
+/// transform through both the lookup and the turning tangent frame); and a floor of procedural oak planks (its
+/// graph parameters, tint, uv transform); each with the constants.
 #[test]
 fn texture_space_gradients_agree_with_the_cpu() {
     let Some(mut vk) = vk() else { return };
@@ -150,12 +152,17 @@ fn texture_space_gradients_agree_with_the_cpu() {
         r#""albedo": { "texture": "checker.exr" }, "roughness": { "texture": "rough.exr" }, "specular": 0.8,
            "uv_transform": { "scale": [1.5, 1.5], "rotation_deg": 20 }"#,
     );
+    let bumpy_floor = textured_floor_with(
+        r#""albedo": 0.4, "specular": 0.8, "roughness": 0.5, "normal_map": "bumps.exr",
+           "uv_transform": { "scale": [1.3, 0.8], "rotation_deg": 20 }"#,
+    );
     let planks = planks();
     let texture_params = [
         (
             &texel_floor,
             vec!["albedo.texel[1,2]", "albedo.texel[3,0]", "roughness.texel[1,2]", "uv_scale", "uv_rotation"],
         ),
+        (&bumpy_floor, vec!["normal_map.texel[1,2]", "normal_map.texel[2,2]", "uv_scale", "uv_rotation"]),
         (&planks, vec!["graph.gap", "graph.variation", "tint", "uv_scale", "uv_rotation"]),
     ];
     for (k, (s, fields)) in texture_params.into_iter().enumerate() {

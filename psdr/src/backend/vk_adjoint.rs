@@ -9,7 +9,7 @@
 
 use super::vk_backend::{backend_error, upload, upload_scene, VkBackend};
 use crate::error::{Error, Result};
-use crate::grad::interior::material_light::texture_read_adjoint;
+use crate::grad::interior::material_light::{normal_read_adjoint, texture_read_adjoint};
 use crate::grad::{DeviceSlots, GradLayout, PixelwiseAdjoint};
 use crate::render::cpu::frame_params;
 use crate::render::layout::{FrameParams, NONE};
@@ -33,8 +33,13 @@ pub struct AdjointParams {
     pub texture_reads: u32,
 }
 
-/// u32 per texture read the kernel writes (TEXTURE_READ_FLOATS): material, uv, d_albedo, d_rough, padding.
-const TEXTURE_READ_WORDS: usize = 8;
+/// u32 per texture read the kernel writes (TEXTURE_READ_FLOATS): material (NORMAL_READ set for a normal-map
+/// read), uv, then d_albedo and d_rough, or d_c and d_uv; padding.
+const TEXTURE_READ_WORDS: usize = 12;
+/// Records per path (READS_PER_PATH): one per vertex from each of the two sweeps.
+const READS_PER_PATH: usize = 2 * MAX_RECORD_DEPTH as usize;
+/// The material word's tag of a normal-map read (NORMAL_READ).
+const NORMAL_READ: u32 = 0x8000_0000;
 
 /// Longest path the kernel records (MAX_RECORD_DEPTH in shaders/grad/path/record.glsl).
 pub const MAX_RECORD_DEPTH: u32 = 16;
@@ -125,7 +130,7 @@ impl VkBackend {
         let pixels = (d.camera.width * d.camera.height) as usize;
         let by_paths = (self.pass_path_samples / u64::from(fp.spp.max(1))).max(1);
         let by_rows = (MAX_ROWS_BYTES / (len as u64 * 4)).max(1);
-        let reads_per_pixel = (fp.spp * MAX_RECORD_DEPTH) as usize * TEXTURE_READ_WORDS;
+        let reads_per_pixel = fp.spp as usize * READS_PER_PATH * TEXTURE_READ_WORDS;
         let by_reads =
             if slots.texture_reads { (MAX_ROWS_BYTES / (reads_per_pixel as u64 * 4)).max(1) } else { u64::MAX };
         let per_pass = by_paths.min(by_rows).min(by_reads).min(pixels as u64) as usize;
@@ -158,12 +163,16 @@ impl VkBackend {
             }
             if slots.texture_reads {
                 let words = reads.download_range(0, count * reads_per_pixel).map_err(backend_error)?;
-                let path_words = MAX_RECORD_DEPTH as usize * TEXTURE_READ_WORDS;
-                for path in words.chunks_exact(path_words) {
+                for path in words.chunks_exact(READS_PER_PATH * TEXTURE_READ_WORDS) {
                     for e in path.chunks_exact(TEXTURE_READ_WORDS).take_while(|e| e[0] != NONE) {
                         let f = |k: usize| f32::from_bits(e[k]);
-                        let (uv, d_albedo) = (Vec2::new(f(1), f(2)), Vec3::new(f(3), f(4), f(5)));
-                        texture_read_adjoint(d, layout, e[0] as usize, uv, d_albedo, f(6), &mut grad);
+                        let (uv, x) = (Vec2::new(f(1), f(2)), Vec3::new(f(3), f(4), f(5)));
+                        let m = (e[0] & !NORMAL_READ) as usize;
+                        if e[0] & NORMAL_READ != 0 {
+                            normal_read_adjoint(d, layout, m, uv, x, [f(6), f(7), f(8)], &mut grad);
+                        } else {
+                            texture_read_adjoint(d, layout, m, uv, x, f(6), &mut grad);
+                        }
                     }
                 }
             }

@@ -59,7 +59,7 @@ void main() {
     }
     uint n_a = fp.spp / 2u;
     uint n_b = fp.spp - fp.spp / 2u;
-    uint reads_stride = MAX_RECORD_DEPTH * TEXTURE_READ_FLOATS;
+    uint reads_stride = READS_PER_PATH * TEXTURE_READ_FLOATS;
     vec3 t = vec3(target[3u * p], target[3u * p + 1u], target[3u * p + 2u]);
     vec3 i_a = vec3(0.0);
     for (uint k = 0u; k < n_a; k++) {
@@ -75,7 +75,7 @@ void main() {
         i_b += path_record_radiance();
         uint reads_at = (i * fp.spp + k) * reads_stride;
         if (delta_b != vec3(0.0)) {
-            backward_sweep(delta_b, row, reads_at);
+            reads_end(reads_at, normal_map_sweep(delta_b, backward_sweep(delta_b, row, reads_at)));
         } else if (texture_reads != 0u) {
             texture_reads_out[reads_at] = NONE;
         }
@@ -86,7 +86,7 @@ void main() {
         uint reads_at = (i * fp.spp + n_b + k) * reads_stride;
         if (delta_a != vec3(0.0)) {
             record_half(fp.seed, px, py, k);
-            backward_sweep(delta_a, row, reads_at);
+            reads_end(reads_at, normal_map_sweep(delta_a, backward_sweep(delta_a, row, reads_at)));
         } else if (texture_reads != 0u) {
             texture_reads_out[reads_at] = NONE;
         }

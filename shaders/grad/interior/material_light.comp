@@ -45,7 +45,7 @@ void main() {
         grad_rows[row + k] = 0.0;
     }
     vec3 delta = vec3(adjoint[3u * p], adjoint[3u * p + 1u], adjoint[3u * p + 2u]) / float(fp.spp);
-    uint reads_stride = MAX_RECORD_DEPTH * TEXTURE_READ_FLOATS;
+    uint reads_stride = READS_PER_PATH * TEXTURE_READ_FLOATS;
     if (delta == vec3(0.0)) {
         for (uint sample_ = 0u; texture_reads != 0u && sample_ < fp.spp; sample_++) {
             texture_reads_out[(i * fp.spp + sample_) * reads_stride] = NONE;
@@ -56,6 +56,7 @@ void main() {
         rec_count = 0u;
         trace_path(p % cam.width, p / cam.width, sample_);
         recorder_flush();
-        backward_sweep(delta, row, (i * fp.spp + sample_) * reads_stride);
+        uint path_reads = (i * fp.spp + sample_) * reads_stride;
+        reads_end(path_reads, normal_map_sweep(delta, backward_sweep(delta, row, path_reads)));
     }
 }

@@ -58,6 +58,9 @@ pub struct GradLayout {
     /// Per material: some parameter lives in texture space (texels, whole maps, the uv transform), so the albedo
     /// and roughness adjoints read at a vertex go through `texture_read_adjoint`.
     texture_reads: Vec<bool>,
+    /// Per material: its normal map has requested texels or its uv transform is requested, so the normal-map
+    /// adjoint at a vertex goes through `normal_read_adjoint`.
+    normal_reads: Vec<bool>,
     /// Some parameter moves shading normals (normal-map texels, the uv transform of a normal-mapped material).
     pub(crate) shading_normal_wanted: bool,
     /// Per material: offsets of uv scale (2) and rotation (1) gradients, and the transform itself.
@@ -78,10 +81,12 @@ pub struct DeviceSlots {
     pub materials: usize,
     pub emitters: usize,
     /// Albedo offsets per material, radiance offsets per emitter, roughness and specular offsets per material,
-    /// then per material the BSDF derivatives wanted (0 none, 1 albedo, 2 all) and whether its texture reads
-    /// are wanted (1) or not (0).
+    /// then per material the BSDF derivatives wanted (0 none, 1 albedo, 2 all), its reads wanted (1 albedo and
+    /// roughness textures, 2 the normal map) and its uv transform (scale x, scale y, rotation in degrees, as f32
+    /// bits).
     pub table: Vec<u32>,
-    /// Some material's texture reads are wanted: the kernel writes them out for `texture_read_adjoint`.
+    /// Some material's texture or normal-map reads are wanted: the kernel writes them out for
+    /// `texture_read_adjoint` and `normal_read_adjoint`.
     pub texture_reads: bool,
 }
 
@@ -123,6 +128,7 @@ impl GradLayout {
             normal_texels: vec![],
             material_wanted: vec![],
             texture_reads: vec![],
+            normal_reads: vec![],
             shading_normal_wanted: false,
             uv_scale: vec![None; scene.materials.len()],
             uv_rotation: vec![None; scene.materials.len()],
@@ -236,6 +242,10 @@ impl GradLayout {
                 Wanted::Nothing
             });
             l.texture_reads.push(uv || albedo_texels || albedo_map || rough_texels);
+            let normal = mat.normal_map;
+            l.normal_reads.push(
+                normal.is_some() && (uv || normal.is_some_and(|t| l.normal_texels.iter().any(|e| e.0 as usize == t))),
+            );
         }
         l.shading_normal_wanted =
             !l.normal_texels.is_empty()
@@ -246,10 +256,8 @@ impl GradLayout {
     }
 
     /// What the GPU adjoint (shaders/grad/interior/material_light.comp) needs when it covers every requested
-    /// parameter (`DeviceSlots`). `None` when some parameter is of a kind the GPU pass does not compute yet
-    /// (normal-map texels, the uv transform of a normal-mapped material, anything that moves geometry).
+    /// parameter (`DeviceSlots`): every material and light parameter; `None` for anything that moves geometry.
     pub fn device_slots(&self) -> Option<DeviceSlots> {
-        use crate::scene::TextureSlot;
         let covered = self.params.iter().all(|p| {
             matches!(
                 p,
@@ -257,14 +265,14 @@ impl GradLayout {
                     | ParamPath::MaterialAlbedo(_)
                     | ParamPath::MaterialRoughness(_)
                     | ParamPath::MaterialSpecular(_)
-                    | ParamPath::MaterialTexel { slot: TextureSlot::Albedo | TextureSlot::Roughness, .. }
+                    | ParamPath::MaterialTexel { .. }
                     | ParamPath::UvScale(_)
                     | ParamPath::UvRotation(_)
                     | ParamPath::GraphParam { .. }
                     | ParamPath::ProceduralTint(_)
             )
         });
-        if !covered || self.shading_normal_wanted {
+        if !covered {
             return None;
         }
         let slot = |o: &Option<usize>| o.map_or(u32::MAX, |o| o as u32);
@@ -273,12 +281,16 @@ impl GradLayout {
             .flat_map(|v| v.iter().map(slot))
             .collect();
         table.extend(self.material_wanted.iter().map(|&w| w as u32));
-        table.extend(self.texture_reads.iter().map(|&r| u32::from(r)));
+        table
+            .extend(self.texture_reads.iter().zip(&self.normal_reads).map(|(&t, &n)| u32::from(t) | u32::from(n) << 1));
+        for t in &self.uv_transform {
+            table.extend([t.scale[0] as f32, t.scale[1] as f32, t.rotation_deg as f32].map(f32::to_bits));
+        }
         Some(DeviceSlots {
             materials: self.albedo.len(),
             emitters: self.emitter.len(),
             table,
-            texture_reads: self.texture_reads.contains(&true),
+            texture_reads: self.texture_reads.contains(&true) || self.normal_reads.contains(&true),
         })
     }
 
@@ -432,9 +444,7 @@ pub(crate) fn normal_map_sweep(d: &SceneData, l: &GradLayout, rec: &PathRecord, 
     }
     for (k, v) in verts.iter().enumerate() {
         let m = v.material as usize;
-        let tex = d.materials[m].normal_tex;
-        let uv_params = l.uv_scale[m].is_some() || l.uv_rotation[m].is_some();
-        if tex == NONE || !(uv_params || l.normal_texels.iter().any(|e| e.0 == tex)) {
+        if !l.normal_reads[m] {
             continue;
         }
         let incoming = if k == 0 { rec.dir } else { verts[k - 1].next.expect("a later vertex was reached").dir };
@@ -448,21 +458,40 @@ pub(crate) fn normal_map_sweep(d: &SceneData, l: &GradLayout, rec: &PathRecord, 
             d_ns += bsdf_normal_adjoint(&sp, -incoming, c.dir, a * r_after[k] / (c.pdf * c.q));
         }
         let d_c = jacobian.transpose() * d_ns;
-        for &(t, texel, o) in l.normal_texels.iter().filter(|e| e.0 == tex) {
-            add3(grad, Some(o), d_c * bilinear_weight(&d.textures[t as usize], v.uv, texel));
-        }
-        if uv_params {
+        let mut d_uv = [0.0f32; 3];
+        if l.uv_scale[m].is_some() || l.uv_rotation[m].is_some() {
             let tr = &l.uv_transform[m];
             let scale = Vec2::new(tr.scale[0] as f32, tr.scale[1] as f32);
             let dn = normal_map_uv_tangents(d, v.triangle, v.u, v.v, incoming, scale, tr.rotation_deg as f32);
-            if let Some(o) = l.uv_scale[m] {
-                grad[o] += d_ns.dot(dn[0]) as f64;
-                grad[o + 1] += d_ns.dot(dn[1]) as f64;
-            }
-            if let Some(o) = l.uv_rotation[m] {
-                grad[o] += d_ns.dot(dn[2]) as f64;
-            }
+            d_uv = [d_ns.dot(dn[0]), d_ns.dot(dn[1]), d_ns.dot(dn[2])];
         }
+        normal_read_adjoint(d, l, m, v.uv, d_c, d_uv, grad);
+    }
+}
+
+/// Carries the adjoint of the normal map read at (transformed) `uv` of material `m` (`d_c`, per map channel) and
+/// of its uv transform (`d_uv`: scale x, scale y, rotation) into the gradient: the map's requested texels by their
+/// bilinear weights, the transform's slots. The GPU adjoint writes these arguments out per vertex and the host
+/// calls this in the CPU's order (backend/vk_adjoint.rs).
+pub(crate) fn normal_read_adjoint(
+    d: &SceneData,
+    l: &GradLayout,
+    m: usize,
+    uv: Vec2,
+    d_c: Vec3,
+    d_uv: [f32; 3],
+    grad: &mut [f64],
+) {
+    let tex = d.materials[m].normal_tex;
+    for &(t, texel, o) in l.normal_texels.iter().filter(|e| e.0 == tex) {
+        add3(grad, Some(o), d_c * bilinear_weight(&d.textures[t as usize], uv, texel));
+    }
+    if let Some(o) = l.uv_scale[m] {
+        grad[o] += d_uv[0] as f64;
+        grad[o + 1] += d_uv[1] as f64;
+    }
+    if let Some(o) = l.uv_rotation[m] {
+        grad[o] += d_uv[2] as f64;
     }
 }
 

@@ -81,7 +81,9 @@ impl<'a> MapInputs<'a> {
             dir: incoming,
         })
     }
+}
 
+impl MapInputs<'_> {
     /// The uv frame with corner uvs transformed by `transform` (duals when uv parameters move).
     fn frame(&self, transform: impl Fn(Vec2) -> [D; 2]) -> UvFrame {
         let [q0, q1, q2] = self.uv.map(transform);
