@@ -6,7 +6,7 @@
 //! where on the mesh a point lies) stay on the CPU.
 
 use super::vk_backend::{upload, upload_scene, VkBackend};
-use super::vk_primary::{edge_words, pose_words};
+use super::vk_primary::{corner_ids, edge_words, pose_words};
 use super::vk_rows::rows_in_order;
 use crate::error::Result;
 use crate::grad::boundary::primary::PrimaryEdges;
@@ -41,8 +41,8 @@ const DEPTH_INTERIOR: u32 = 0;
 const SILHOUETTES: u32 = 1;
 
 impl VkBackend {
-    /// `grad::aovs_vjp` on the device, when every pose entry is a pose component (translation, yaw, rotation,
-    /// scale); `Ok(None)` when some are vertices.
+    /// `grad::aovs_vjp` on the device (pose components and vertices alike; `Ok(Some)` always, the Option kept
+    /// for the backends' common shape).
     pub fn aovs_vjp_on_device(
         &mut self,
         scene: &Scene,
@@ -52,7 +52,7 @@ impl VkBackend {
         adjoints: &AovAdjoints,
         edge_samples: u32,
     ) -> Result<Option<Vec<f64>>> {
-        let Some(pose_words) = pose_words(pose) else { return Ok(None) };
+        let (pose_words, entry_count) = pose_words(pose);
         let of_object = masks_by_object(scene, d, adjoints)?;
         let len = pose.len;
         if len == 0 || (adjoints.depth.is_none() && adjoints.masks.is_empty()) {
@@ -82,7 +82,7 @@ impl VkBackend {
             seed: settings.seed,
             spp: settings.spp,
             grad_len: len as u32,
-            pose_entry_count: pose.entries.len() as u32,
+            pose_entry_count: entry_count,
             edge_count: edges.edges.len() as u32,
             total_length: edges.total_length,
             edge_samples,
@@ -90,6 +90,8 @@ impl VkBackend {
             ..Default::default()
         };
         let inputs: Vec<&dyn StorageBinding> = scene_bufs.iter().chain(&bufs).map(|b| b.as_ref()).collect();
+        let corners = upload(ctx, "corner_ids", &corner_ids(d, pose))?;
+        let tail = [&corners as &dyn StorageBinding];
         let pass = |mode: u32| move |begin, count| AovParams { mode, begin, count, ..params };
         // The CPU adds the depth interior to the boundary term; so does this.
         let mut boundary = vec![0.0f64; len];
@@ -99,7 +101,7 @@ impl VkBackend {
                 ctx,
                 &self.aov_vjp,
                 &inputs,
-                &[],
+                &tail,
                 pass(SILHOUETTES),
                 edge_samples as usize,
                 per_pass,
@@ -109,7 +111,7 @@ impl VkBackend {
         let mut interior = vec![0.0f64; len];
         if adjoints.depth.is_some() {
             let per_pass = (self.pass_path_samples / u64::from(settings.spp.max(1))).max(1) as usize;
-            rows_in_order(ctx, &self.aov_vjp, &inputs, &[], pass(DEPTH_INTERIOR), pixels, per_pass, &mut interior)?;
+            rows_in_order(ctx, &self.aov_vjp, &inputs, &tail, pass(DEPTH_INTERIOR), pixels, per_pass, &mut interior)?;
         }
         Ok(Some(boundary.iter().zip(&interior).map(|(b, i)| b + i).collect()))
     }

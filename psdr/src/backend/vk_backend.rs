@@ -73,17 +73,17 @@ impl VkBackend {
             kernel_words(shader_dir, "grad/interior/fused_l2", psdr_vk::include_spirv!("grad/interior/fused_l2"))?;
         let fused_l2_vjp = Kernel::new(&ctx, "fused_l2_vjp", &words, 14).map_err(backend_error)?;
         let words = kernel_words(shader_dir, "grad/vjp/aov", psdr_vk::include_spirv!("grad/vjp/aov"))?;
-        let aov_vjp = Kernel::new(&ctx, "aov_vjp", &words, 16).map_err(backend_error)?;
+        let aov_vjp = Kernel::new(&ctx, "aov_vjp", &words, 17).map_err(backend_error)?;
         let words =
             kernel_words(shader_dir, "grad/vjp/radiance_pose", psdr_vk::include_spirv!("grad/vjp/radiance_pose"))?;
-        let radiance_pose_vjp = Kernel::new(&ctx, "radiance_pose_vjp", &words, 14).map_err(backend_error)?;
+        let radiance_pose_vjp = Kernel::new(&ctx, "radiance_pose_vjp", &words, 15).map_err(backend_error)?;
         let radiance_pose_secondary_vjp = if ctx.capabilities().shader_float64 {
             let words = kernel_words(
                 shader_dir,
                 "grad/vjp/radiance_pose_secondary",
                 psdr_vk::include_spirv!("grad/vjp/radiance_pose_secondary"),
             )?;
-            Some(Kernel::new(&ctx, "radiance_pose_secondary_vjp", &words, 17).map_err(backend_error)?)
+            Some(Kernel::new(&ctx, "radiance_pose_secondary_vjp", &words, 18).map_err(backend_error)?)
         } else {
             None
         };
@@ -149,7 +149,7 @@ impl Backend for VkBackend {
         }
     }
 
-    /// On the device for pose components, else (vertices) the CPU reference.
+    /// On the device.
     fn aovs_vjp(
         &mut self,
         scene: &crate::scene::Scene,
@@ -165,7 +165,7 @@ impl Backend for VkBackend {
         }
     }
 
-    /// On the device for pose components, else (vertices) the CPU reference.
+    /// On the device.
     fn radiance_primary_boundary(
         &mut self,
         scene: &crate::scene::Scene,
@@ -181,7 +181,7 @@ impl Backend for VkBackend {
         }
     }
 
-    /// On the device for pose components; `None` (the CPU) for vertices.
+    /// On the device, with the secondary term where its kernel covers the entries (`None`: the CPU).
     fn radiance_pose_interior(
         &mut self,
         scene: &crate::scene::Scene,

@@ -7,7 +7,7 @@
 
 use super::vk_adjoint::MAX_RECORD_DEPTH;
 use super::vk_backend::{upload, upload_scene, VkBackend};
-use super::vk_primary::{edge_words, pose_words};
+use super::vk_primary::{corner_ids, edge_words, pose_words};
 use super::vk_rows::rows_in_order;
 use crate::error::{Error, Result};
 use crate::grad::boundary::primary::PrimaryEdges;
@@ -51,8 +51,7 @@ const PRIMARY: u32 = 0;
 const INTERIOR: u32 = 1;
 
 impl VkBackend {
-    /// `grad::radiance_primary_boundary` on the device when every pose entry is a pose component; `Ok(None)`
-    /// when some are vertices.
+    /// `grad::radiance_primary_boundary` on the device (pose components and vertices alike).
     pub fn radiance_primary_on_device(
         &mut self,
         scene: &Scene,
@@ -62,7 +61,7 @@ impl VkBackend {
         adjoint: &[f32],
         edge_samples: u32,
     ) -> Result<Option<Vec<f64>>> {
-        let Some(pose_words) = pose_words(pose) else { return Ok(None) };
+        let (pose_words, entry_count) = pose_words(pose);
         let pixels = (d.camera.width * d.camera.height) as usize;
         if adjoint.len() != pixels * 3 {
             return Err(Error::Invalid(format!("adjoint image has {} values, expected {}", adjoint.len(), pixels * 3)));
@@ -83,7 +82,7 @@ impl VkBackend {
         let params = RadiancePoseParams {
             fp: frame_params(d, settings),
             grad_len: pose.len as u32,
-            pose_entry_count: pose.entries.len() as u32,
+            pose_entry_count: entry_count,
             edge_count: edges.edges.len() as u32,
             total_length: edges.total_length,
             edge_samples,
@@ -93,14 +92,17 @@ impl VkBackend {
         // Two paths per edge sample.
         let per_pass = (self.pass_path_samples / 2).max(1) as usize;
         let push = |begin, count| RadiancePoseParams { begin, count, mode: PRIMARY, ..params };
-        rows_in_order(ctx, &self.radiance_pose_vjp, &inputs, &[], push, edge_samples as usize, per_pass, &mut grad)?;
+        let corners = upload(ctx, "corner_ids", &corner_ids(d, pose))?;
+        let tail = [&corners as &dyn StorageBinding];
+        rows_in_order(ctx, &self.radiance_pose_vjp, &inputs, &tail, push, edge_samples as usize, per_pass, &mut grad)?;
         Ok(Some(grad))
     }
 
     /// The interior term of `grad::radiance_pose_vjp` (its ray-form replay) on the device, with the secondary
-    /// boundary (`secondary_samples` per scattering vertex) when it is asked for; `Ok(None)` when some entry is
-    /// a vertex's, when the secondary term is asked for with more than MAX_ACTIVE entries, or when the device
-    /// lacks shaderFloat64 (the secondary kernel's edge-tree descent is in double precision).
+    /// boundary (`secondary_samples` per scattering vertex) when it is asked for; `Ok(None)` when the secondary
+    /// term is asked for with vertex parameters or more than MAX_ACTIVE entries (its kernel keeps each active
+    /// entry's vertex velocities), or when the device lacks shaderFloat64 (its edge-tree descent is in double
+    /// precision).
     pub fn radiance_pose_interior_on_device(
         &mut self,
         scene: &Scene,
@@ -110,8 +112,9 @@ impl VkBackend {
         adjoint: &[f32],
         secondary_samples: u32,
     ) -> Result<Option<Vec<f64>>> {
-        let Some(pose_words) = pose_words(pose) else { return Ok(None) };
-        if secondary_samples > 0 && (pose.entries.len() > MAX_ACTIVE || self.radiance_pose_secondary_vjp.is_none()) {
+        let (pose_words, entry_count) = pose_words(pose);
+        let secondary_declined = pose.has_vertices() || pose.entries.len() > MAX_ACTIVE;
+        if secondary_samples > 0 && (secondary_declined || self.radiance_pose_secondary_vjp.is_none()) {
             if self.radiance_pose_secondary_vjp.is_none() {
                 note_once("the Vulkan device lacks shaderFloat64, which the secondary boundary kernel needs: it runs on the CPU");
             }
@@ -143,7 +146,7 @@ impl VkBackend {
         let mut params = RadiancePoseParams {
             fp,
             grad_len: pose.len as u32,
-            pose_entry_count: pose.entries.len() as u32,
+            pose_entry_count: entry_count,
             mode: INTERIOR,
             secondary_samples,
             moving_root: NONE,
@@ -152,9 +155,11 @@ impl VkBackend {
         };
         let inputs: Vec<&dyn StorageBinding> = scene_bufs.iter().chain(&bufs).map(|b| b.as_ref()).collect();
         let per_pass = (self.pass_path_samples / u64::from(fp.spp.max(1))).max(1) as usize;
+        let corners = upload(ctx, "corner_ids", &corner_ids(d, pose))?;
         if secondary_samples == 0 {
             let push = |begin, count| RadiancePoseParams { begin, count, ..params };
-            rows_in_order(ctx, &self.radiance_pose_vjp, &inputs, &[], push, pixels, per_pass, &mut grad)?;
+            let tail = [&corners as &dyn StorageBinding];
+            rows_in_order(ctx, &self.radiance_pose_vjp, &inputs, &tail, push, pixels, per_pass, &mut grad)?;
             return Ok(Some(grad));
         }
         let words = SecondaryEdges::build(scene, |o| pose.moves(o)).gpu_words();
@@ -165,7 +170,8 @@ impl VkBackend {
             Box::new(upload(ctx, "tree_words", &words.nodes)?) as Box<dyn StorageBinding>,
             Box::new(upload(ctx, "edge_order", &words.order)?) as Box<dyn StorageBinding>,
         ];
-        let tail: Vec<&dyn StorageBinding> = tail.iter().map(|b| b.as_ref()).collect();
+        let tail: Vec<&dyn StorageBinding> =
+            tail.iter().map(|b| b.as_ref()).chain([&corners as &dyn StorageBinding]).collect();
         let kernel = self.radiance_pose_secondary_vjp.as_ref().expect("checked above");
         let push = |begin, count| RadiancePoseParams { begin, count, ..params };
         rows_in_order(ctx, kernel, &inputs, &tail, push, pixels, per_pass, &mut grad)?;

@@ -1,13 +1,15 @@
 // Primary boundary: silhouette edges projected to the image, sampled by projected length (the edge list and the
 // CDF of their lengths are built on the host, PrimaryEdges::build), and one edge sample's contribution to the
 // pose gradient. The including kernel declares, before including this file: the buffers edge_words (uint,
-// EDGE_WORDS per edge), edge_cdf (float), pose_words (uint, POSE_WORDS per pose entry) and grad_rows (float);
+// EDGE_WORDS per edge), edge_cdf (float), pose_words (uint, POSE_WORDS per pose entry), corner_ids (uint, the
+// welded vertex ids of each triangle's corners, when vertices are parameters) and grad_rows (float);
 // the push constants edge_count, total_length and pose_entry_count; and the function
 //     float weighted_jump(uint pixel, vec2 y, vec2 n, Sampler s)
 // (Σ_outputs adjoint(pixel) · [f(y − εn) − f(y + εn)], the closure the Rust twin takes).
 // Rust twin: psdr/src/grad/boundary/primary.rs (project_velocity, point_on_edge, PrimaryEdges::sample,
-// primary_boundary_sample).
-// GLSL only: image_edge, pose_entry, words_vec3, pose_vec3 (unpack one edge and one pose entry from their words).
+// primary_boundary_sample, ImageEdge::site).
+// GLSL only: image_edge, pose_entry, words_vec3, pose_vec3, vertex_axis (unpack an edge and a pose entry from
+// their words; a vertex block's ∂x/∂(v_k)_a at weight 1).
 #ifndef PSDR_PRIMARY_GLSL
 #define PSDR_PRIMARY_GLSL
 #include "render/layout.glsl"
@@ -19,10 +21,14 @@
 // Offset of the two side rays from a silhouette, in pixels (SIDE_EPS), and the seed tweak of edge samples.
 const float SIDE_EPS = 1e-3;
 const uint EDGE_SEED = 0x6a09e667u;
-// Words per edge: a (3 floats), object, b (3), unused, pa (2), pb (2).
-const uint EDGE_WORDS = 12u;
-// Words per pose entry: object, gradient offset, a (3 floats), G's columns (9), t (3).
+// Words per edge: a (3 floats), object, b (3), the first end's welded id, pa (2), pb (2), the whole mesh edge's
+// first point (3), the second end's id, its second point (3), unused.
+const uint EDGE_WORDS = 20u;
+// Words per pose entry: object, gradient offset, a (3 floats), G's columns (9), t (3). A vertex block (an object
+// whose vertices are parameters) tags its object VERTEX_BLOCK, gives the offset of vertex 0 axis 0 (vertex k
+// axis a is 3k + a further) and R (e_a S) for the three axes in a, G's first and second columns.
 const uint POSE_WORDS = 17u;
+const uint VERTEX_BLOCK = 0x80000000u;
 
 // A silhouette edge clipped to the front of the camera: world and image endpoints.
 struct ImageEdge {
@@ -31,6 +37,11 @@ struct ImageEdge {
     vec2 pa;
     vec2 pb;
     uint object;
+    // The whole (unclipped) mesh edge and the welded ids of its ends, for vertex velocities.
+    vec3 mesh0;
+    vec3 mesh1;
+    uint end0;
+    uint end1;
 };
 
 // A point sampled on the silhouette set (see the Rust twin).
@@ -58,7 +69,14 @@ ImageEdge image_edge(uint k) {
     return ImageEdge(words_vec3(w), words_vec3(w + 4u),
                      vec2(uintBitsToFloat(edge_words[w + 8u]), uintBitsToFloat(edge_words[w + 9u])),
                      vec2(uintBitsToFloat(edge_words[w + 10u]), uintBitsToFloat(edge_words[w + 11u])),
-                     edge_words[w + 3u]);
+                     edge_words[w + 3u], words_vec3(w + 12u), words_vec3(w + 16u), edge_words[w + 7u],
+                     edge_words[w + 15u]);
+}
+
+// Where x lies along the mesh edge, as the weight t of its second end (1 − t of the first).
+float image_edge_site(ImageEdge e, vec3 x) {
+    vec3 ab = e.mesh1 - e.mesh0;
+    return clamp(dot3(x - e.mesh0, ab) / dot3(ab, ab), 0.0, 1.0);
 }
 
 vec3 pose_vec3(uint at) {
@@ -70,6 +88,10 @@ PoseEntry pose_entry(uint e) {
     AffineVelocity f = AffineVelocity(pose_vec3(w + 2u), mat3(pose_vec3(w + 5u), pose_vec3(w + 8u), pose_vec3(w + 11u)),
                                       pose_vec3(w + 14u));
     return PoseEntry(pose_words[w], pose_words[w + 1u], f);
+}
+
+vec3 vertex_axis(PoseEntry p, uint axis) {
+    return axis == 0u ? p.field.a : (axis == 1u ? p.field.g[0] : p.field.g[1]);
 }
 
 // ∂(pixel x, pixel y)/∂x of the projection at world point x, applied to a velocity u.
@@ -169,6 +191,22 @@ void primary_boundary_sample(uint seed, uint edge_samples, uint k, uint row) {
         }
         vec2 v = project_velocity(cam, es.x, affine_velocity_at(p.field, es.x));
         grad_rows[row + p.at] += weight * (v.x * es.n.x + v.y * es.n.y);
+    }
+    // The edge's end vertices, when they are parameters: x moves with them by their weights along the edge.
+    for (uint e = 0u; e < pose_entry_count; e++) {
+        PoseEntry p = pose_entry(e);
+        if (p.object != (edge.object | VERTEX_BLOCK)) {
+            continue;
+        }
+        float t = image_edge_site(edge, es.x);
+        for (uint end = 0u; end < 2u; end++) {
+            uint id = end == 0u ? edge.end0 : edge.end1;
+            float b = end == 0u ? 1.0 - t : t;
+            for (uint axis = 0u; axis < 3u; axis++) {
+                vec2 v = project_velocity(cam, es.x, vertex_axis(p, axis) * b);
+                grad_rows[row + p.at + 3u * id + axis] += weight * (v.x * es.n.x + v.y * es.n.y);
+            }
+        }
     }
 }
 

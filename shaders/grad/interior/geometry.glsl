@@ -27,10 +27,13 @@ uint active_entries[MAX_ACTIVE];
 uint active_count;
 vec3 replay_velocity[MAX_ACTIVE * MAX_RECORD_DEPTH];
 
-// The moving pose component being differentiated: its object and velocity field.
+// The moving component being differentiated: its object and velocity field (a pose component), or one axis of
+// one welded vertex (vertex != NONE; its corners move by vertex_velocity, stored normals do not follow).
 struct Tangent {
     uint object;
     AffineVelocity field;
+    uint vertex;
+    vec3 vertex_velocity;
 };
 
 // A triangle whose vertices move with one pose component.
@@ -47,19 +50,26 @@ struct DualPoint {
     BsdfParamsD bsdf;
 };
 
-D3 tangent_corner(Tangent t, uint object, vec3 x) {
-    return D3(x, object == t.object ? affine_velocity_at(t.field, x) : vec3(0.0));
+// A mesh vertex of `object` at world position x, corner `c` of triangle ti.
+D3 tangent_corner(Tangent t, uint object, uint ti, uint c, vec3 x) {
+    if (object != t.object) {
+        return D3(x, vec3(0.0));
+    }
+    if (t.vertex == NONE) {
+        return D3(x, affine_velocity_at(t.field, x));
+    }
+    return D3(x, corner_ids[3u * ti + c] == t.vertex ? t.vertex_velocity * 1.0 : vec3(0.0));
 }
 
 D3 tangent_normal(Tangent t, uint object, vec3 n) {
-    return D3(n, object == t.object ? affine_velocity_normal(t.field, n) : vec3(0.0));
+    return D3(n, object == t.object && t.vertex == NONE ? affine_velocity_normal(t.field, n) : vec3(0.0));
 }
 
 DualTriangle triangle(Tangent t, uint ti) {
     TriangleGeom tri = triangles[ti];
-    D3 p0 = tangent_corner(t, tri.object, tri.v0);
-    D3 p1 = tangent_corner(t, tri.object, tri.v0 + tri.e1);
-    D3 p2 = tangent_corner(t, tri.object, tri.v0 + tri.e2);
+    D3 p0 = tangent_corner(t, tri.object, ti, 0u, tri.v0);
+    D3 p1 = tangent_corner(t, tri.object, ti, 1u, tri.v0 + tri.e1);
+    D3 p2 = tangent_corner(t, tri.object, ti, 2u, tri.v0 + tri.e2);
     // Keep the primal edge vectors bit-exact; only tangents come from the velocity field.
     return DualTriangle(p0, D3(tri.e1, p1.d - p0.d), D3(tri.e2, p2.d - p0.d), tri.object);
 }

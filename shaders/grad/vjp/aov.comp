@@ -42,6 +42,8 @@ layout(std430, set = 0, binding = 12) readonly buffer DepthAdjoint { float depth
 layout(std430, set = 0, binding = 13) readonly buffer MaskAdjoints { float mask_adjoints[]; };
 layout(std430, set = 0, binding = 14) readonly buffer MaskOfObject { uint mask_of_object[]; };
 layout(std430, set = 0, binding = 15) buffer GradRows { float grad_rows[]; };
+// The welded vertex ids of each triangle's corners (when vertices are parameters).
+layout(std430, set = 0, binding = 16) readonly buffer CornerIds { uint corner_ids[]; };
 
 #include "render/bvh.glsl"
 #include "grad/boundary/primary.glsl"
@@ -114,11 +116,20 @@ void depth_interior(uint p, uint row) {
         }
         for (uint e = 0u; e < pose_entry_count; e++) {
             PoseEntry entry = pose_entry(e);
-            if (entry.object != tri.object) {
-                continue;
+            if (entry.object == tri.object) {
+                float dt = dot3(n, affine_velocity_at(entry.field, x)) / nd;
+                grad_rows[row + entry.at] += delta * dt * dot3(dir, cam.forward);
+            } else if (entry.object == (tri.object | VERTEX_BLOCK)) {
+                // The hit's corner vertices move it by their barycentric weights.
+                float bary[3] = float[3](1.0 - hit.u - hit.v, hit.u, hit.v);
+                for (uint c = 0u; c < 3u; c++) {
+                    uint id = corner_ids[3u * hit.triangle + c];
+                    for (uint axis = 0u; axis < 3u; axis++) {
+                        float dt = dot3(n, vertex_axis(entry, axis) * bary[c]) / nd;
+                        grad_rows[row + entry.at + 3u * id + axis] += delta * dt * dot3(dir, cam.forward);
+                    }
+                }
             }
-            float dt = dot3(n, affine_velocity_at(entry.field, x)) / nd;
-            grad_rows[row + entry.at] += delta * dt * dot3(dir, cam.forward);
         }
     }
 }

@@ -44,6 +44,10 @@ layout(std430, set = 0, binding = 13) buffer GradRows { float grad_rows[]; };
 layout(std430, set = 0, binding = 14) readonly buffer SecEdgeWords { uint sec_edge_words[]; };
 layout(std430, set = 0, binding = 15) readonly buffer TreeWords { uint tree_words[]; };
 layout(std430, set = 0, binding = 16) readonly buffer EdgeOrder { uint edge_order[]; };
+// The welded vertex ids of each triangle's corners (when vertices are parameters), after the secondary buffers.
+layout(std430, set = 0, binding = 17) readonly buffer CornerIds { uint corner_ids[]; };
+#else
+layout(std430, set = 0, binding = 14) readonly buffer CornerIds { uint corner_ids[]; };
 #endif
 
 #include "grad/path/record.glsl"
@@ -101,10 +105,48 @@ void radiance_pose_vjp(uint p, uint row) {
             if (active_count < MAX_ACTIVE) {
                 active_entries[active_count] = e;
             }
-            vec3 dl = replay_radiance(Tangent(entry.object, entry.field), min(active_count, MAX_ACTIVE - 1u));
+            vec3 dl = replay_radiance(Tangent(entry.object, entry.field, NONE, vec3(0.0)), min(active_count, MAX_ACTIVE - 1u));
             active_count += 1u;
             grad_rows[row + entry.at] += dot3(delta, dl);
         }
+#ifndef WITH_SECONDARY
+        // Vertex blocks (the host keeps them out of the secondary kernel): every welded vertex at a corner of a
+        // triangle the path touches, once, each axis.
+        for (uint e = 0u; e < pose_entry_count; e++) {
+            PoseEntry entry = pose_entry(e);
+            if ((entry.object & VERTEX_BLOCK) == 0u) {
+                continue;
+            }
+            uint object = entry.object & ~VERTEX_BLOCK;
+            uint seen[6u * MAX_RECORD_DEPTH];
+            uint n_seen = 0u;
+            for (uint k = 0u; k < rec_count; k++) {
+                for (uint which = 0u; which < 2u; which++) {
+                    uint ti = which == 0u ? rec_vertices[k].triangle : (rec_vertices[k].has_nee ? rec_vertices[k].nee_triangle : NONE);
+                    if (ti == NONE || triangles[ti].object != object) {
+                        continue;
+                    }
+                    for (uint c = 0u; c < 3u; c++) {
+                        uint id = corner_ids[3u * ti + c];
+                        bool known = false;
+                        for (uint q = 0u; q < n_seen; q++) {
+                            known = known || seen[q] == id;
+                        }
+                        if (!known) {
+                            seen[n_seen] = id;
+                            n_seen += 1u;
+                        }
+                    }
+                }
+            }
+            for (uint q = 0u; q < n_seen; q++) {
+                for (uint axis = 0u; axis < 3u; axis++) {
+                    vec3 dl = replay_radiance(Tangent(object, entry.field, seen[q], vertex_axis(entry, axis)), 0u);
+                    grad_rows[row + entry.at + 3u * seen[q] + axis] += dot3(delta, dl);
+                }
+            }
+        }
+#endif
 #ifdef WITH_SECONDARY
         if (secondary_samples > 0u) {
             secondary_boundary(delta, fp.seed, p, sample_, secondary_samples, row);

@@ -234,6 +234,20 @@ impl PoseLayout {
         self.vertex_base.iter().any(Option::is_some)
     }
 
+    /// Per object whose vertices are parameters: the object, the gradient offset of its vertex 0 axis 0 (vertex
+    /// k axis a is 3k + a further) and ∂x/∂(v_k)_a at weight 1 per axis, R (e_a S) (the GPU kernels' vertex
+    /// blocks; `velocity` multiplies these by the point's weight of the vertex).
+    pub fn vertex_blocks(&self) -> Vec<(u32, usize, [Vec3; 3])> {
+        let mut out = vec![];
+        for (o, base) in self.vertex_base.iter().enumerate() {
+            if let Some(base) = base {
+                let axes = [0, 1, 2].map(|a| self.rotation[o] * (Vec3::AXES[a] * self.scale[o]));
+                out.push((o as u32, self.entries[*base].2, axes));
+            }
+        }
+        out
+    }
+
     /// ∂x/∂θ of the world-space point `x` of `object`, lying at `site` on its mesh, for one component.
     pub fn velocity(&self, object: u32, c: PoseComponent, x: Vec3, site: Site) -> Vec3 {
         let o = object as usize;
