@@ -294,8 +294,8 @@ fn gradient_does_not_depend_on_the_pass_size() {
 /// depends on where on the mesh a point lies (corner weights, edge ends), which the kernels read per vertex
 /// block. Depth and masks (both terms), the radiance's primary boundary and interior agree with the CPU, with
 /// direct light (max_depth 2): measured 4.7e-9, 9e-16 and exactly. (With one more bounce the interior differs by
-/// up to 8e-5: the vase's small triangles amplify the rounding of the BSDF-sampled bounce direction.) The
-/// secondary kernel keeps a bounded set of entries per path and declines vertex parameters (CPU reference).
+/// up to 8e-5: the vase's small triangles amplify the rounding of the BSDF-sampled bounce direction.) And the
+/// secondary boundary with vertex parameters.
 #[test]
 fn vertex_parameters_agree_with_the_cpu() {
     let Some(mut vk) = vk() else { return };
@@ -344,7 +344,30 @@ fn vertex_parameters_agree_with_the_cpu() {
         assert!(nonzero >= 50, "{name}: the test exercises too little");
         assert!(worst <= 1e-4 && worst_abs <= 1e-6, "{name}:\ncpu {cpu:?}\ngpu {gpu:?}");
     }
-    assert!(vk.radiance_pose_interior_on_device(&s, &d, &s.settings, &pose, &radiance, 1).unwrap().is_none());
+    // The secondary boundary with vertex parameters (and the interior it feeds on).
+    let samples = psdr::grad::BoundarySamples { primary: 0, secondary: 1 };
+    let cpu = psdr::grad::radiance_pose_vjp(&s, &d, &s.settings, &pose, &radiance, samples, &mut cpu_backend).unwrap();
+    let gpu = vk.radiance_pose_interior_on_device(&s, &d, &s.settings, &pose, &radiance, 1).unwrap().unwrap();
+    let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
+    let pairs = || cpu.iter().zip(&gpu);
+    let worst =
+        pairs().filter(|(a, _)| a.abs() >= 1e-3 * scale).map(|(a, b)| (a - b).abs() / a.abs()).fold(0.0, f64::max);
+    let worst_abs = pairs().map(|(a, b)| (a - b).abs() / scale).fold(0.0, f64::max);
+    let nonzero = cpu.iter().filter(|g| g.abs() > 0.0).count();
+    eprintln!("vertices, secondary: {nonzero} nonzero, worst relative {worst:.2e}, absolute {worst_abs:.2e}");
+    assert!(worst <= 1e-4 && worst_abs <= 1e-6, "secondary:\ncpu {cpu:?}\ngpu {gpu:?}");
+    // An occluder the camera never sees: its vertices' whole gradient is the secondary boundary (its shadow).
+    let s = grad_common::scenes::shadow_scene(2);
+    let d = SceneData::build(&s).unwrap();
+    let pose = PoseLayout::new(&s, &["object/blocker/vertices".parse().unwrap()]).unwrap();
+    let radiance = random_image((s.camera.width * s.camera.height * 3) as usize, 14);
+    let cpu = psdr::grad::radiance_pose_vjp(&s, &d, &s.settings, &pose, &radiance, samples, &mut cpu_backend).unwrap();
+    let gpu = vk.radiance_pose_interior_on_device(&s, &d, &s.settings, &pose, &radiance, 1).unwrap().unwrap();
+    let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
+    let worst = cpu.iter().zip(&gpu).map(|(a, b)| (a - b).abs() / (a.abs() + 1e-6 * scale)).fold(0.0, f64::max);
+    let nonzero = cpu.iter().filter(|g| g.abs() > 0.0).count();
+    eprintln!("vertices, shadow only: {nonzero} of {} nonzero, worst relative {worst:.2e}", cpu.len());
+    assert!(nonzero >= cpu.len() / 2 && worst <= 1e-4, "shadow:\ncpu {cpu:?}\ngpu {gpu:?}");
     psdr_tests::assert_no_validation_errors(&vk);
 }
 

@@ -45,7 +45,7 @@ pub struct RadiancePoseParams {
 
 /// Pose entries whose vertex velocities the secondary kernel keeps per path (MAX_ACTIVE in
 /// shaders/grad/interior/geometry.glsl).
-pub const MAX_ACTIVE: usize = 32;
+pub const MAX_ACTIVE: usize = 64;
 
 const PRIMARY: u32 = 0;
 const INTERIOR: u32 = 1;
@@ -100,7 +100,7 @@ impl VkBackend {
 
     /// The interior term of `grad::radiance_pose_vjp` (its ray-form replay) on the device, with the secondary
     /// boundary (`secondary_samples` per scattering vertex) when it is asked for; `Ok(None)` when the secondary
-    /// term is asked for with vertex parameters or more than MAX_ACTIVE entries (its kernel keeps each active
+    /// term is asked for and more than MAX_ACTIVE entries could touch one path (its kernel keeps each active
     /// entry's vertex velocities), or when the device lacks shaderFloat64 (its edge-tree descent is in double
     /// precision).
     pub fn radiance_pose_interior_on_device(
@@ -113,7 +113,11 @@ impl VkBackend {
         secondary_samples: u32,
     ) -> Result<Option<Vec<f64>>> {
         let (pose_words, entry_count) = pose_words(pose);
-        let secondary_declined = pose.has_vertices() || pose.entries.len() > MAX_ACTIVE;
+        // At most this many entries touch one path: every pose component, and per vertex block 3 axes of the 3
+        // corners of the hit and light triangles of every vertex.
+        let blocks = pose.vertex_blocks().len();
+        let most_active = entry_count as usize - blocks + blocks * 18 * settings.max_depth as usize;
+        let secondary_declined = most_active > MAX_ACTIVE;
         if secondary_samples > 0 && (secondary_declined || self.radiance_pose_secondary_vjp.is_none()) {
             if self.radiance_pose_secondary_vjp.is_none() {
                 note_once("the Vulkan device lacks shaderFloat64, which the secondary boundary kernel needs: it runs on the CPU");

@@ -7,6 +7,7 @@
 #define PSDR_HORIZON_GLSL
 #include "render/shading.glsl"
 #include "grad/path/velocity.glsl"
+#include "grad/interior/geometry.glsl"
 
 const float HORIZON_SIDE_EPS = 1e-4;
 
@@ -14,15 +15,15 @@ bool has_horizon_jump(uint ti) {
     return materials[triangles[ti].material].normal_tex != NONE || (shading[ti].flags & SHADING_HAS_NORMALS) != 0u;
 }
 
-// dn/dθ of triangle ti's geometric normal (oriented as the shading point's) under one pose entry's field.
-vec3 face_normal_velocity(uint ti, uint object, AffineVelocity field, vec3 sp_ng) {
+// dn/dθ of triangle ti's geometric normal (oriented as the shading point's) as its corners move with tg.
+vec3 face_normal_velocity(uint ti, Tangent tg, vec3 sp_ng) {
     TriangleGeom tri = triangles[ti];
-    if (tri.object != object) {
+    if (tri.object != tg.object) {
         return vec3(0.0);
     }
-    vec3 u0 = affine_velocity_at(field, tri.v0);
-    vec3 de1 = affine_velocity_at(field, tri.v0 + tri.e1) - u0;
-    vec3 de2 = affine_velocity_at(field, tri.v0 + tri.e2) - u0;
+    vec3 u0 = tangent_corner(tg, tri.object, ti, 0u, tri.v0).d;
+    vec3 de1 = tangent_corner(tg, tri.object, ti, 1u, tri.v0 + tri.e1).d - u0;
+    vec3 de2 = tangent_corner(tg, tri.object, ti, 2u, tri.v0 + tri.e2).d - u0;
     vec3 cr = cross3(tri.e1, tri.e2);
     float len = length3(cr);
     if (isnan(len) || len <= 0.0) {

@@ -1,13 +1,13 @@
-// Welded mesh edges as the GPU reads them (SecondaryEdges::gpu_words, MESH_EDGE_WORDS an edge): endpoints, object,
-// whether two faces meet there and whether that is a shading crease, the faces' normals and the edge's strength
-// (precomputed on the host). The including kernel declares the buffer sec_edge_words (uint).
+// Welded mesh edges as the GPU reads them (SecondaryEdges::gpu_words, MESH_EDGE_WORDS an edge): endpoints,
+// object, whether two faces meet there and whether that is a shading crease, the faces' normals, the edge's
+// strength (precomputed on the host) and the welded ids of its ends. The including kernel declares the buffer sec_edge_words (uint).
 // Rust twin: psdr/src/grad/boundary/mesh_edges.rs (MeshEdge::is_silhouette_from).
 // GLSL only: mesh_edge, edge_vec3 (unpack an edge from its words).
 #ifndef PSDR_MESH_EDGES_GLSL
 #define PSDR_MESH_EDGES_GLSL
 #include "render/vec_math.glsl"
 
-const uint MESH_EDGE_WORDS = 16u;
+const uint MESH_EDGE_WORDS = 20u;
 
 struct MeshEdge {
     vec3 a;
@@ -18,6 +18,9 @@ struct MeshEdge {
     vec3 n1;
     float strength;
     vec3 n2;
+    // The welded ids of the edge's ends.
+    uint end0;
+    uint end1;
 };
 
 vec3 edge_vec3(uint at) {
@@ -29,7 +32,8 @@ MeshEdge mesh_edge(uint i) {
     uint w = i * MESH_EDGE_WORDS;
     uint flags = sec_edge_words[w + 7u];
     return MeshEdge(edge_vec3(w), sec_edge_words[w + 3u], edge_vec3(w + 4u), (flags & 1u) != 0u, (flags & 2u) != 0u,
-                    edge_vec3(w + 8u), uintBitsToFloat(sec_edge_words[w + 11u]), edge_vec3(w + 12u));
+                    edge_vec3(w + 8u), uintBitsToFloat(sec_edge_words[w + 11u]), edge_vec3(w + 12u),
+                    sec_edge_words[w + 15u], sec_edge_words[w + 16u]);
 }
 
 // One face (a border) or several (non-manifold): always a silhouette; two: when they face x differently.

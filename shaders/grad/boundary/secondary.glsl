@@ -7,8 +7,8 @@
 // (grad/interior/geometry.glsl), the edge and tree buffers, grad_rows and the push constants moving_root,
 // static_root and moving_edges.
 // Rust twin: psdr/src/grad/boundary/secondary.rs (secondary_boundary).
-// GLSL only: edge_weight, active_slot (the closure secondary_boundary gives the tree; an entry's place among
-// the active ones).
+// GLSL only: edge_weight, active_slot, active_tangent, edge_sample_share (the closure secondary_boundary gives the
+// tree; an entry's place among the active ones, its tangent; the body of its loop over moving entries).
 #ifndef PSDR_SECONDARY_GLSL
 #define PSDR_SECONDARY_GLSL
 #include "render/shading.glsl"
@@ -48,14 +48,37 @@ float edge_weight(uint i, vec3 x, vec3 ng) {
     return (isnan(w) || isinf(w)) ? 0.0 : w;
 }
 
-// The place of pose entry e among the path's active entries, or NONE.
-uint active_slot(uint e) {
+// The place of pose entry e (for a vertex block: its vertex and axis) among the path's active entries, or NONE.
+uint active_slot(uint e, uint vertex, uint axis) {
     for (uint j = 0u; j < active_count; j++) {
-        if (active_entries[j] == e) {
+        if (active_entries[j] == e && active_vertex[j] == vertex && active_axis[j] == axis) {
             return j;
         }
     }
     return NONE;
+}
+
+// The tangent and gradient offset of active slot j.
+Tangent active_tangent(uint j, out uint at) {
+    PoseEntry entry = pose_entry(active_entries[j]);
+    uint vertex = active_vertex[j];
+    if (vertex == NONE) {
+        at = entry.at;
+        return Tangent(entry.object, entry.field, NONE, vec3(0.0));
+    }
+    at = entry.at + 3u * vertex + active_axis[j];
+    return Tangent(entry.object & ~VERTEX_BLOCK, entry.field, vertex, vertex_axis(entry, active_axis[j]));
+}
+
+// Adds one moving entry's share of an edge sample: the edge point's velocity relative to x's.
+void edge_sample_share(uint at, vec3 edge_velocity, vec3 x_velocity, vec3 om, float r, float scale, vec3 n_hat,
+                       uint row) {
+    vec3 rel = edge_velocity - x_velocity;
+    if (rel == vec3(0.0)) {
+        return;
+    }
+    vec3 v_dir = (rel - om * dot3(om, rel)) / r;
+    grad_rows[row + at] += scale * dot3(v_dir, n_hat);
 }
 
 void secondary_boundary(vec3 delta, uint seed, uint pixel, uint sample_, uint count, uint row) {
@@ -82,10 +105,11 @@ void secondary_boundary(vec3 delta, uint seed, uint pixel, uint sample_, uint co
         if (has_horizon_jump(v.triangle)) {
             uint turn_count = 0u;
             for (uint j = 0u; j < active_count; j++) {
-                PoseEntry entry = pose_entry(active_entries[j]);
-                vec3 dn = face_normal_velocity(v.triangle, entry.object, entry.field, sp.ng);
+                uint at;
+                Tangent tg = active_tangent(j, at);
+                vec3 dn = face_normal_velocity(v.triangle, tg, sp.ng);
                 if (dn != vec3(0.0)) {
-                    turn_at[turn_count] = entry.at;
+                    turn_at[turn_count] = at;
                     turn_dn[turn_count] = dn;
                     turn_count += 1u;
                 }
@@ -163,22 +187,38 @@ void secondary_boundary(vec3 delta, uint seed, uint pixel, uint sample_, uint co
                 continue;
             }
             float scale = dot3(a, jump) * length3(tau) / (p_edge * float(count));
-            // Entries that move x or the edge point.
+            // Entries that move x or the edge point: the velocity of the edge point (a material point, at weight t
+            // of its second end) relative to x (a sliding ray-form vertex). First the active ones...
+            for (uint j = 0u; j < active_count; j++) {
+                uint at;
+                Tangent tg = active_tangent(j, at);
+                vec3 edge_velocity = vec3(0.0);
+                if (tg.object == e.object && tg.vertex == NONE) {
+                    edge_velocity = affine_velocity_at(tg.field, q);
+                } else if (tg.object == e.object) {
+                    float b = (e.end0 == tg.vertex ? 1.0 - t : 0.0) + (e.end1 == tg.vertex ? t : 0.0);
+                    edge_velocity = b == 0.0 ? vec3(0.0) : tg.vertex_velocity * b;
+                }
+                edge_sample_share(at, edge_velocity, replay_velocity[j * MAX_RECORD_DEPTH + k], om, r, scale, n_hat, row);
+            }
+            // ...then those of the edge's object the path does not touch.
             for (uint i = 0u; i < pose_entry_count; i++) {
                 PoseEntry entry = pose_entry(i);
-                uint slot = active_slot(i);
-                if (slot == NONE && entry.object != e.object) {
-                    continue;
+                if (entry.object == e.object && active_slot(i, NONE, 0u) == NONE) {
+                    edge_sample_share(entry.at, affine_velocity_at(entry.field, q), vec3(0.0), om, r, scale, n_hat, row);
+                } else if (entry.object == (e.object | VERTEX_BLOCK)) {
+                    for (uint end = 0u; end < 2u; end++) {
+                        uint id = end == 0u ? e.end0 : e.end1;
+                        float b = end == 0u ? 1.0 - t : t;
+                        for (uint axis = 0u; axis < 3u; axis++) {
+                            if (active_slot(i, id, axis) != NONE || b == 0.0) {
+                                continue;
+                            }
+                            edge_sample_share(entry.at + 3u * id + axis, vertex_axis(entry, axis) * b, vec3(0.0), om, r,
+                                              scale, n_hat, row);
+                        }
+                    }
                 }
-                // Velocity of the edge point (a material point) relative to x (a sliding ray-form vertex).
-                vec3 edge_velocity = e.object == entry.object ? affine_velocity_at(entry.field, q) : vec3(0.0);
-                vec3 x_velocity = slot != NONE ? replay_velocity[slot * MAX_RECORD_DEPTH + k] : vec3(0.0);
-                vec3 rel = edge_velocity - x_velocity;
-                if (rel == vec3(0.0)) {
-                    continue;
-                }
-                vec3 v_dir = (rel - om * dot3(om, rel)) / r;
-                grad_rows[row + entry.at] += scale * dot3(v_dir, n_hat);
             }
         }
     }

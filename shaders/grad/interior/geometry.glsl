@@ -20,10 +20,13 @@
 
 // At most this many pose entries touch one path when their vertex velocities are kept for the secondary
 // boundary (WITH_SECONDARY; the host checks the entry count).
-const uint MAX_ACTIVE = 32u;
-// The entries that touch the recorded path, and dx_k/dθ of its vertices under each (slot j, vertex k at
-// j * MAX_RECORD_DEPTH + k), written by replay_radiance.
+const uint MAX_ACTIVE = 64u;
+// The entries that touch the recorded path (a pose entry, and for a vertex block the welded vertex and axis; NONE
+// for a pose component), and dx_k/dθ of its vertices under each (slot j, vertex k at j * MAX_RECORD_DEPTH + k),
+// written by replay_radiance.
 uint active_entries[MAX_ACTIVE];
+uint active_vertex[MAX_ACTIVE];
+uint active_axis[MAX_ACTIVE];
 uint active_count;
 vec3 replay_velocity[MAX_ACTIVE * MAX_RECORD_DEPTH];
 

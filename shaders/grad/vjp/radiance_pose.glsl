@@ -104,14 +104,14 @@ void radiance_pose_vjp(uint p, uint row) {
             // (The host keeps the entries within MAX_ACTIVE where the slots are read, WITH_SECONDARY.)
             if (active_count < MAX_ACTIVE) {
                 active_entries[active_count] = e;
+                active_vertex[active_count] = NONE;
+                active_axis[active_count] = 0u;
             }
             vec3 dl = replay_radiance(Tangent(entry.object, entry.field, NONE, vec3(0.0)), min(active_count, MAX_ACTIVE - 1u));
             active_count += 1u;
             grad_rows[row + entry.at] += dot3(delta, dl);
         }
-#ifndef WITH_SECONDARY
-        // Vertex blocks (the host keeps them out of the secondary kernel): every welded vertex at a corner of a
-        // triangle the path touches, once, each axis.
+        // Vertex blocks: every welded vertex at a corner of a triangle the path touches, once, each axis.
         for (uint e = 0u; e < pose_entry_count; e++) {
             PoseEntry entry = pose_entry(e);
             if ((entry.object & VERTEX_BLOCK) == 0u) {
@@ -141,12 +141,18 @@ void radiance_pose_vjp(uint p, uint row) {
             }
             for (uint q = 0u; q < n_seen; q++) {
                 for (uint axis = 0u; axis < 3u; axis++) {
-                    vec3 dl = replay_radiance(Tangent(object, entry.field, seen[q], vertex_axis(entry, axis)), 0u);
+                    if (active_count < MAX_ACTIVE) {
+                        active_entries[active_count] = e;
+                        active_vertex[active_count] = seen[q];
+                        active_axis[active_count] = axis;
+                    }
+                    Tangent tg = Tangent(object, entry.field, seen[q], vertex_axis(entry, axis));
+                    vec3 dl = replay_radiance(tg, min(active_count, MAX_ACTIVE - 1u));
+                    active_count += 1u;
                     grad_rows[row + entry.at + 3u * seen[q] + axis] += dot3(delta, dl);
                 }
             }
         }
-#endif
 #ifdef WITH_SECONDARY
         if (secondary_samples > 0u) {
             secondary_boundary(delta, fp.seed, p, sample_, secondary_samples, row);

@@ -78,7 +78,7 @@ impl SecondaryEdges {
             edges.extend(n1.to_array().map(f32::to_bits));
             edges.push(e.strength().to_bits());
             edges.extend(n2.to_array().map(f32::to_bits));
-            edges.push(0);
+            edges.extend([e.ends[0], e.ends[1], 0, 0, 0]);
         }
         let (mut nodes, mut order) = (vec![], vec![]);
         let moving_root = self.moving_tree.append_gpu_words(&mut nodes, &mut order);
@@ -88,8 +88,8 @@ impl SecondaryEdges {
 }
 
 /// Words per edge in `SecondaryEdges::gpu_words`: a, object, b, flags (1 two faces, 2 crease), the first face's
-/// normal, strength, the second face's normal, unused.
-pub const MESH_EDGE_WORDS: usize = 16;
+/// normal, strength, the second face's normal, the ends' welded ids, unused.
+pub const MESH_EDGE_WORDS: usize = 20;
 
 /// `SecondaryEdges` as words for the GPU; roots are NONE for an empty tree.
 pub struct SecondaryWords {
