@@ -47,6 +47,9 @@ pub struct RadiancePoseParams {
 /// shaders/grad/interior/geometry.glsl).
 pub const MAX_ACTIVE: usize = 64;
 
+/// Set to 1 to let a device that lacks a feature a gradient kernel needs leave that term to the CPU.
+pub const CPU_FALLBACK_ENV: &str = "PSDR_VK_CPU_FALLBACK";
+
 const PRIMARY: u32 = 0;
 const INTERIOR: u32 = 1;
 
@@ -117,11 +120,20 @@ impl VkBackend {
         // corners of the hit and light triangles of every vertex.
         let blocks = pose.vertex_blocks().len();
         let most_active = entry_count as usize - blocks + blocks * 18 * settings.max_depth as usize;
-        let secondary_declined = most_active > MAX_ACTIVE;
-        if secondary_samples > 0 && (secondary_declined || self.radiance_pose_secondary_vjp.is_none()) {
-            if self.radiance_pose_secondary_vjp.is_none() {
-                note_once("the Vulkan device lacks shaderFloat64, which the secondary boundary kernel needs: it runs on the CPU");
+        if secondary_samples > 0 && self.radiance_pose_secondary_vjp.is_none() {
+            // A missing device feature: the CPU only when asked.
+            if std::env::var_os(CPU_FALLBACK_ENV).is_none_or(|v| v.is_empty() || v == "0") {
+                return Err(Error::Backend(format!(
+                    "the Vulkan device lacks shaderFloat64, which the secondary boundary kernel needs (its edge-tree \
+                     descent is in double precision); set {CPU_FALLBACK_ENV}=1 to compute that term on the CPU, or \
+                     --sppse 0 to leave it out"
+                )));
             }
+            note_once("the Vulkan device lacks shaderFloat64: the secondary boundary runs on the CPU");
+            return Ok(None);
+        }
+        if secondary_samples > 0 && most_active > MAX_ACTIVE {
+            // Not a device limit but this kernel's: the CPU reference takes the term (every backend computes it).
             return Ok(None);
         }
         let pixels = (d.camera.width * d.camera.height) as usize;
