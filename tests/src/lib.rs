@@ -237,6 +237,17 @@ pub fn validate_glb(dir: &std::path::Path, glb: &std::path::Path) -> (u64, u64, 
     (issues["numErrors"].as_u64().unwrap(), issues["numWarnings"].as_u64().unwrap(), issues["messages"].to_string())
 }
 
+/// The backend the finite-difference gradient tests run on: the CPU, or the Vulkan device with
+/// PSDR_TEST_BACKEND=vk (renders, analytic gradients and central differences all there; the bounds are the
+/// same). CI runs the CPU; the device run is a manual check, as lavapipe would multiply CI's time.
+pub fn fd_backend() -> Box<dyn psdr::backend::Backend> {
+    match std::env::var("PSDR_TEST_BACKEND").as_deref() {
+        Ok("vk") => Box::new(psdr::backend::VkBackend::new(None).expect("PSDR_TEST_BACKEND=vk needs a Vulkan device")),
+        Ok("cpu") | Ok("") | Err(_) => Box::new(psdr::backend::CpuBackend),
+        Ok(other) => panic!("PSDR_TEST_BACKEND={other}: expected cpu or vk"),
+    }
+}
+
 /// A Vulkan backend from `open`, or None with a note when no device works, unless PSDR_REQUIRE_VULKAN=1 (CI
 /// sets it), which turns a missing device into a failure.
 pub fn vulkan_or_skip(

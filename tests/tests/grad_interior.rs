@@ -6,7 +6,6 @@
 //! correct implementation with probability < 0.2 % per comparison; all seeds are fixed, so the test is
 //! deterministic, and a gradient off by 10 % or more exceeds the bound in every case below.
 
-use psdr::backend::CpuBackend;
 use psdr::grad::{
     analytic_gradient, central_difference, radiance_vjp, AdOptions, FdOptions, GradLayout, ImageLoss, Output, ParamPath,
 };
@@ -30,11 +29,11 @@ fn check_against_fd(scene: &Scene, path: &str, step: f32, components: &[usize]) 
         std::slice::from_ref(&p),
         &loss,
         &AdOptions { replicas: REPLICAS, edge_samples: 0, secondary_edge_samples: 0 },
-        &mut CpuBackend,
+        psdr_tests::fd_backend().as_mut(),
     )
     .unwrap();
     let opts = FdOptions { step, replicas: REPLICAS, components: components.to_vec() };
-    let fd = central_difference(scene, &p, &loss, &opts, &mut CpuBackend).unwrap();
+    let fd = central_difference(scene, &p, &loss, &opts, psdr_tests::fd_backend().as_mut()).unwrap();
     for (k, &c) in components.iter().enumerate() {
         let bound = 4.0 * (ad.std_err[c].powi(2) + fd.std_err[k].powi(2)).sqrt();
         let diff = (ad.mean[c] - fd.mean[k]).abs();
@@ -139,7 +138,7 @@ fn unused_material_has_zero_gradient() {
         &[p],
         &ImageLoss::Mean(Output::Radiance),
         &AdOptions { replicas: 2, edge_samples: 0, secondary_edge_samples: 0 },
-        &mut CpuBackend,
+        psdr_tests::fd_backend().as_mut(),
     )
     .unwrap();
     assert_eq!(ad.mean, vec![0.0; 3]);

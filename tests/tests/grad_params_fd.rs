@@ -1,7 +1,6 @@
 //! Parameter paths address the scene faithfully, and central finite differences (the ground truth for every
 //! analytic gradient) are right where the answer is known in closed form.
 
-use psdr::backend::CpuBackend;
 use psdr::grad::{central_difference, FdOptions, ImageLoss, Output, ParamPath};
 use psdr::render::{render_cpu, SceneData};
 use psdr::scene::{load_scene, Scene};
@@ -71,7 +70,8 @@ fn finite_differences_match_the_closed_form_for_a_linear_parameter() {
     let frame = render_cpu(&SceneData::build(&s).unwrap(), &s.settings, &|_, _| {});
     let n = frame.pixel_count() as f64;
     let opts = FdOptions { step: 0.5, replicas: 1, components: vec![] };
-    let fd = central_difference(&s, &p, &ImageLoss::Mean(Output::Radiance), &opts, &mut CpuBackend).unwrap();
+    let fd = central_difference(&s, &p, &ImageLoss::Mean(Output::Radiance), &opts, psdr_tests::fd_backend().as_mut())
+        .unwrap();
     for (c, (&le_c, &fd_c)) in le.iter().zip(&fd.mean).enumerate() {
         let sum: f64 = frame.radiance.iter().skip(c).step_by(3).map(|&x| x as f64).sum();
         let exact = sum / (3.0 * n * le_c as f64);
@@ -87,7 +87,8 @@ fn finite_differences_are_zero_for_an_unused_parameter() {
     s.materials.push(psdr::scene::Material::diffuse("unused", glam::Vec3::splat(0.5)));
     let p: ParamPath = "material/unused/albedo".parse().unwrap();
     let opts = FdOptions { step: 0.1, replicas: 2, components: vec![0] };
-    let fd = central_difference(&s, &p, &ImageLoss::Mean(Output::Radiance), &opts, &mut CpuBackend).unwrap();
+    let fd = central_difference(&s, &p, &ImageLoss::Mean(Output::Radiance), &opts, psdr_tests::fd_backend().as_mut())
+        .unwrap();
     assert_eq!(fd.mean, vec![0.0]);
 }
 

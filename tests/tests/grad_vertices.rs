@@ -16,7 +16,6 @@ mod grad_common;
 use glam::{Mat3, Vec3};
 use grad_common::scenes::{box_in_the_dark, room_with_cube, shadow_scene};
 use grad_common::{ad, check_components};
-use psdr::backend::CpuBackend;
 use psdr::grad::{central_difference, AdOptions, FdOptions, ImageLoss, Output, ParamPath};
 use psdr::render::{render_cpu, SceneData};
 use psdr::scene::{weld, Scene};
@@ -90,7 +89,7 @@ fn check_extrapolated(s: &Scene, path: &str, loss: &ImageLoss, h: f32, comps: &[
     let p: ParamPath = path.parse().unwrap();
     let at = |step| {
         let opts = FdOptions { step, replicas: OPTS.replicas, components: comps.to_vec() };
-        central_difference(s, &p, loss, &opts, &mut CpuBackend).unwrap()
+        central_difference(s, &p, loss, &opts, psdr_tests::fd_backend().as_mut()).unwrap()
     };
     let (f1, f2) = (at(h), at(2.0 * h));
     let mut out = vec![];

@@ -7,7 +7,6 @@
 
 pub mod scenes;
 
-use psdr::backend::CpuBackend;
 use psdr::grad::ParamPath;
 use psdr::grad::{analytic_gradient, central_difference, AdEstimate, AdOptions, FdEstimate, FdOptions, ImageLoss};
 use psdr::scene::{load_scene, Scene};
@@ -29,13 +28,13 @@ pub fn scene_from_json(name: &str, json: &str) -> Scene {
 
 pub fn ad(scene: &Scene, path: &str, loss: &ImageLoss, opts: AdOptions) -> AdEstimate {
     let p: ParamPath = path.parse().unwrap();
-    analytic_gradient(scene, &[p], loss, &opts, &mut CpuBackend).unwrap()
+    analytic_gradient(scene, &[p], loss, &opts, psdr_tests::fd_backend().as_mut()).unwrap()
 }
 
 pub fn fd(scene: &Scene, path: &str, loss: &ImageLoss, step: f32, replicas: u32) -> FdEstimate {
     let p: ParamPath = path.parse().unwrap();
     let opts = FdOptions { step, replicas, components: vec![] };
-    central_difference(scene, &p, loss, &opts, &mut CpuBackend).unwrap()
+    central_difference(scene, &p, loss, &opts, psdr_tests::fd_backend().as_mut()).unwrap()
 }
 
 /// Asserts AD within 4 combined standard errors of FD for every component; returns both.
@@ -55,7 +54,7 @@ pub fn check_components(
     let a = ad(scene, path, loss, opts);
     let p: ParamPath = path.parse().unwrap();
     let fd_opts = FdOptions { step, replicas: opts.replicas, components: components.to_vec() };
-    let f = central_difference(scene, &p, loss, &fd_opts, &mut CpuBackend).unwrap();
+    let f = central_difference(scene, &p, loss, &fd_opts, psdr_tests::fd_backend().as_mut()).unwrap();
     for (k, &c) in f.components.iter().enumerate() {
         let bound = 4.0 * (a.std_err[c].powi(2) + f.std_err[k].powi(2)).sqrt();
         let diff = (a.mean[c] - f.mean[k]).abs();
