@@ -54,6 +54,18 @@ fn worst_relative(cpu: &[f64], gpu: &[f64]) -> f64 {
     cpu.iter().zip(gpu).map(|(a, b)| (a - b).abs() / (a.abs() + 1e-6 * scale)).fold(0.0, f64::max)
 }
 
+/// The worst relative difference over the components at least 1e-3 of the largest, and the worst absolute
+/// difference over all of them as a share of the largest: components that cancel to ~1e-8 of the largest (flat
+/// faces translated in ray form) carry the backends' f32 rounding, so they are held to the absolute bound.
+fn split_worst(cpu: &[f64], gpu: &[f64]) -> (f64, f64) {
+    let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
+    let pairs = || cpu.iter().zip(gpu);
+    let worst =
+        pairs().filter(|(a, _)| a.abs() >= 1e-3 * scale).map(|(a, b)| (a - b).abs() / a.abs()).fold(0.0, f64::max);
+    let worst_abs = pairs().map(|(a, b)| (a - b).abs() / scale).fold(0.0, f64::max);
+    (worst, worst_abs)
+}
+
 #[test]
 fn every_term_agrees_with_the_cpu() {
     let Some(mut vk) = vk() else { return };
@@ -127,11 +139,7 @@ fn radiance_interior_agrees_with_the_cpu() {
         // planar; only later bounces slide): those components are sums that cancel to 1e-8 of the largest, where
         // f32 rounding of the two backends' dual arithmetic shows. So: every component at least 1e-3 of the
         // largest within 1e-4 relative, and every component within 1e-6 of the largest absolute.
-        let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
-        let pairs = || cpu.iter().zip(&gpu);
-        let worst =
-            pairs().filter(|(a, _)| a.abs() >= 1e-3 * scale).map(|(a, b)| (a - b).abs() / a.abs()).fold(0.0, f64::max);
-        let worst_abs = pairs().map(|(a, b)| (a - b).abs() / scale).fold(0.0, f64::max);
+        let (worst, worst_abs) = split_worst(&cpu, &gpu);
         eprintln!(
             "radiance interior, max_depth {max_depth}: {nonzero} of {} nonzero, worst relative {worst:.2e} (components \
              >= 1e-3 of the largest), worst absolute {worst_abs:.2e} of the largest",
@@ -171,10 +179,7 @@ fn secondary_boundary_agrees_with_the_cpu() {
             psdr::grad::radiance_pose_vjp(&s, &d, &s.settings, &pose, &adjoint, off, &mut cpu_backend).unwrap();
         let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
         let moved = cpu.iter().zip(&interior).filter(|(a, b)| (*a - *b).abs() > 1e-3 * scale).count();
-        let pairs = || cpu.iter().zip(&gpu);
-        let worst =
-            pairs().filter(|(a, _)| a.abs() >= 1e-3 * scale).map(|(a, b)| (a - b).abs() / a.abs()).fold(0.0, f64::max);
-        let worst_abs = pairs().map(|(a, b)| (a - b).abs() / scale).fold(0.0, f64::max);
+        let (worst, worst_abs) = split_worst(&cpu, &gpu);
         eprintln!(
             "secondary, max_depth {max_depth}: the term moves {moved} of {} components; worst relative {worst:.2e}, \
              worst absolute {worst_abs:.2e} of the largest",
@@ -330,12 +335,8 @@ fn vertex_parameters_agree_with_the_cpu() {
         ),
     ];
     for (name, cpu, gpu) in cases {
-        let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
         let nonzero = cpu.iter().filter(|g| g.abs() > 0.0).count();
-        let pairs = || cpu.iter().zip(&gpu);
-        let worst =
-            pairs().filter(|(a, _)| a.abs() >= 1e-3 * scale).map(|(a, b)| (a - b).abs() / a.abs()).fold(0.0, f64::max);
-        let worst_abs = pairs().map(|(a, b)| (a - b).abs() / scale).fold(0.0, f64::max);
+        let (worst, worst_abs) = split_worst(&cpu, &gpu);
         eprintln!(
             "vertices, {name}: {nonzero} of {} components nonzero, worst relative {worst:.2e}, absolute {worst_abs:.2e}",
             cpu.len()
@@ -348,11 +349,7 @@ fn vertex_parameters_agree_with_the_cpu() {
     let samples = psdr::grad::BoundarySamples { primary: 0, secondary: 1 };
     let cpu = psdr::grad::radiance_pose_vjp(&s, &d, &s.settings, &pose, &radiance, samples, &mut cpu_backend).unwrap();
     let gpu = vk.radiance_pose_interior_on_device(&s, &d, &s.settings, &pose, &radiance, 1).unwrap().unwrap();
-    let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
-    let pairs = || cpu.iter().zip(&gpu);
-    let worst =
-        pairs().filter(|(a, _)| a.abs() >= 1e-3 * scale).map(|(a, b)| (a - b).abs() / a.abs()).fold(0.0, f64::max);
-    let worst_abs = pairs().map(|(a, b)| (a - b).abs() / scale).fold(0.0, f64::max);
+    let (worst, worst_abs) = split_worst(&cpu, &gpu);
     let nonzero = cpu.iter().filter(|g| g.abs() > 0.0).count();
     eprintln!("vertices, secondary: {nonzero} nonzero, worst relative {worst:.2e}, absolute {worst_abs:.2e}");
     assert!(worst <= 1e-4 && worst_abs <= 1e-6, "secondary:\ncpu {cpu:?}\ngpu {gpu:?}");
