@@ -183,7 +183,7 @@ impl VkBackend {
 }
 
 /// An image-sized input (3 floats per pixel), finite.
-fn check_image(d: &SceneData, values: &[f32], what: &str) -> Result<()> {
+pub(super) fn check_image(d: &SceneData, values: &[f32], what: &str) -> Result<()> {
     let n = (d.camera.width * d.camera.height * 3) as usize;
     if values.len() != n {
         return Err(Error::Invalid(format!("{what} has {} values, expected {n}", values.len())));
@@ -194,7 +194,7 @@ fn check_image(d: &SceneData, values: &[f32], what: &str) -> Result<()> {
     Ok(())
 }
 
-fn check_depth(settings: &RenderSettings) -> Result<()> {
+pub(super) fn check_depth(settings: &RenderSettings) -> Result<()> {
     if settings.max_depth > MAX_RECORD_DEPTH {
         return Err(Error::Invalid(format!(
             "the Vulkan adjoint records paths of at most {MAX_RECORD_DEPTH} vertices; max_depth is {}",

@@ -5,7 +5,7 @@
 //! along every pose component that touches them, and with them the secondary boundary, edges drawn from the
 //! host's edge trees; one row per pixel); rows summed in order (`vk_rows`). Vertex parameters stay on the CPU.
 
-use super::vk_adjoint::MAX_RECORD_DEPTH;
+use super::vk_adjoint::{check_depth, check_image};
 use super::vk_backend::{upload, upload_scene, VkBackend};
 use super::vk_primary::{corner_ids, edge_words, pose_words};
 use super::vk_rows::rows_in_order;
@@ -65,10 +65,7 @@ impl VkBackend {
         edge_samples: u32,
     ) -> Result<Option<Vec<f64>>> {
         let (pose_words, entry_count) = pose_words(pose);
-        let pixels = (d.camera.width * d.camera.height) as usize;
-        if adjoint.len() != pixels * 3 {
-            return Err(Error::Invalid(format!("adjoint image has {} values, expected {}", adjoint.len(), pixels * 3)));
-        }
+        check_image(d, adjoint, "adjoint image")?;
         let mut grad = vec![0.0f64; pose.len];
         let edges = PrimaryEdges::build(scene, &d.camera, true, |o| pose.moves(o));
         if pose.len == 0 || edges.edges.is_empty() || edge_samples == 0 {
@@ -137,15 +134,8 @@ impl VkBackend {
             return Ok(None);
         }
         let pixels = (d.camera.width * d.camera.height) as usize;
-        if adjoint.len() != pixels * 3 {
-            return Err(Error::Invalid(format!("adjoint image has {} values, expected {}", adjoint.len(), pixels * 3)));
-        }
-        if settings.max_depth > MAX_RECORD_DEPTH {
-            return Err(Error::Invalid(format!(
-                "the Vulkan adjoint records paths of at most {MAX_RECORD_DEPTH} vertices; max_depth is {}",
-                settings.max_depth
-            )));
-        }
+        check_image(d, adjoint, "adjoint image")?;
+        check_depth(settings)?;
         let mut grad = vec![0.0f64; pose.len];
         if pose.len == 0 {
             return Ok(Some(grad));
