@@ -7,7 +7,8 @@
 //! replicas (the estimator's noise at that cost).
 //! Then the cost's scaling: a flat-shaded sphere (its tessellation from 1k to 200k triangles, every edge a
 //! crease) moving in the example room, seconds per translation gradient with and without the secondary
-//! boundary (results/secondary_scaling.csv, .svg).
+//! boundary, and Mitsuba 3's `prb_projective` on the same job when benchmarks/setup_mitsuba.sh has been run
+//! (results/secondary_scaling.csv, .svg).
 //! `cargo run -p psdr-benchmarks --release --bin bench_secondary [-- WIDTH HEIGHT SPP]` writes
 //! benchmarks/results/secondary.csv and .svg.
 
@@ -75,12 +76,15 @@ fn best_of_3(mut f: impl FnMut() -> psdr::Result<()>) -> anyhow::Result<f64> {
     Ok(best)
 }
 
-/// Seconds per gradient against the moving mesh's triangle count.
+/// Seconds per gradient against the moving mesh's triangle count, psdr by term and Mitsuba 3's `prb_projective`
+/// (guiding none, as in bench_grad) on the same job: L2 to a target with the sphere moved 5 cm, its x
+/// translation. Mitsuba is left out (and said so) when benchmarks/setup_mitsuba.sh has not been run.
 fn scaling(w: u32, h: u32, spp: u32) -> anyhow::Result<()> {
     use psdr::report::chart::{Point, Series, XyChart};
     use psdr::scene::{load_scene, sphere_mesh, Object, Pose};
     let mut csv = String::from("triangles,width,height,spp,terms,seconds\n");
-    let mut series = vec![vec![], vec![]];
+    let mut series = vec![vec![], vec![], vec![]];
+    let work = std::env::temp_dir().join(format!("psdr_bench_secondary_{}", std::process::id()));
     for (rings, segments) in [(16, 32), (32, 64), (64, 128), (128, 256), (224, 448)] {
         let mut s =
             load_scene(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json")))?;
@@ -91,7 +95,11 @@ fn scaling(w: u32, h: u32, spp: u32) -> anyhow::Result<()> {
         let pose = Pose { translation: glam::Vec3::new(0.6, 0.5, -1.0), ..Default::default() };
         s.objects.push(Object { name: "ball".into(), parts: vec![ball], pose, emitter: None });
         let tris = s.objects.last().unwrap().parts[0].indices.len();
-        let loss = ImageLoss::Mean(Output::Radiance);
+        let mut moved = s.clone();
+        moved.objects.last_mut().unwrap().pose.translation.x += 0.05;
+        moved.settings.spp = 64;
+        let target = render_cpu(&SceneData::build(&moved)?, &moved.settings, &|_, _| {}).radiance;
+        let loss = ImageLoss::L2To { output: Output::Radiance, target: target.clone() };
         let params: Vec<ParamPath> = vec!["object/ball/translation".parse()?];
         for (k, (terms, sppse)) in [("interior + primary", 0), ("all terms", 1)].into_iter().enumerate() {
             let opts = AdOptions { replicas: 1, edge_samples: w * h, secondary_edge_samples: sppse };
@@ -100,16 +108,32 @@ fn scaling(w: u32, h: u32, spp: u32) -> anyhow::Result<()> {
             csv += &format!("{tris},{w},{h},{spp},{terms},{best:.4}\n");
             series[k].push(Point::new(tris as f64, best));
         }
+        match mitsuba_seconds(&s, &target, &work.join(format!("ball_{tris}"))) {
+            Ok(best) => {
+                println!("sphere {tris:>7} triangles  {:<20} {best:7.3} s", "Mitsuba prb_projective");
+                csv += &format!("{tris},{w},{h},{spp},mitsuba prb_projective (guiding none),{best:.4}\n");
+                series[2].push(Point::new(tris as f64, best));
+            }
+            Err(e) => println!("sphere {tris:>7} triangles  Mitsuba left out: {e:#}"),
+        }
     }
-    let names = ["interior + primary", "all terms (secondary boundary)"];
+    let _ = std::fs::remove_dir_all(&work);
+    let names = ["psdr interior + primary", "psdr all terms (secondary boundary)", "Mitsuba prb_projective"];
     let chart = XyChart {
         title: "Seconds per translation gradient against the moving mesh's triangles".into(),
-        caption: format!("flat-shaded sphere in the example room, {w}x{h}, {spp} spp, CPU (2 threads)"),
+        caption: format!(
+            "flat-shaded sphere in the example room, L2 to a target moved 5 cm, {w}x{h}, {spp} spp, CPU (2 threads)"
+        ),
         x_label: "triangles of the moving mesh".into(),
         y_label: "seconds".into(),
         log_x: true,
         log_y: true,
-        series: series.into_iter().zip(names).map(|(points, name)| Series::marked(name, points)).collect(),
+        series: series
+            .into_iter()
+            .zip(names)
+            .filter(|(points, _)| !points.is_empty())
+            .map(|(points, name)| Series::marked(name, points))
+            .collect(),
         hlines: vec![],
         width: 640.0,
         height: 400.0,
@@ -117,4 +141,56 @@ fn scaling(w: u32, h: u32, spp: u32) -> anyhow::Result<()> {
     };
     psdr_benchmarks::write_results("secondary_scaling", &csv, &chart.svg())?;
     Ok(())
+}
+
+/// The best of 3 timed gradient iterations of Mitsuba 3's `prb_projective` (guiding none, welded meshes; after
+/// one warm-up for its JIT) on `scene` exported to `dir`: the ball's x translation, L2 to `target`
+/// (benchmarks/mitsuba_grad.py, the driver bench_grad uses).
+fn mitsuba_seconds(scene: &psdr::scene::Scene, target: &[f32], dir: &std::path::Path) -> anyhow::Result<f64> {
+    use anyhow::Context;
+    let bench = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let python = bench.join(".venv/bin/python");
+    anyhow::ensure!(python.exists(), "{} missing: run benchmarks/setup_mitsuba.sh", python.display());
+    let xml = psdr::export::mitsuba::export_mitsuba(scene, dir)?;
+    let target_path = dir.join("target.f32");
+    std::fs::write(&target_path, target.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>())?;
+    // The exported shapes' ids (object_part, non-alphanumerics as '_'), as export_mitsuba names them.
+    let ball = scene.objects.last().context("no ball")?;
+    let shapes: Vec<String> = ball
+        .parts
+        .iter()
+        .map(|p| {
+            format!("{}_{}", ball.name, p.name)
+                .chars()
+                .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                .collect()
+        })
+        .collect();
+    let cfg = serde_json::json!({
+        "scene": xml, "width": scene.camera.width, "height": scene.camera.height, "target": target_path,
+        "max_depth": scene.settings.max_depth, "rr_depth": scene.settings.rr_depth,
+        "params": [{"label": "ball", "kind": "translation", "shapes": shapes, "component": 0}],
+        "integrators": [{"label": "prb_projective_noguide", "type": "prb_projective", "guiding": "none",
+                         "weld": true, "spp": [scene.settings.spp]}],
+        "seeds": [0, 1, 2],
+    });
+    let cfg_path = dir.join("config.json");
+    std::fs::write(&cfg_path, serde_json::to_string_pretty(&cfg)?)?;
+    let llvm =
+        std::env::var("DRJIT_LIBLLVM_PATH").unwrap_or_else(|_| "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1".into());
+    let out = std::process::Command::new(&python)
+        .arg(bench.join("mitsuba_grad.py"))
+        .arg(&cfg_path)
+        .env("DRJIT_LIBLLVM_PATH", llvm)
+        .output()
+        .context("starting mitsuba_grad.py")?;
+    anyhow::ensure!(out.status.success(), "mitsuba_grad.py failed: {}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let times: Vec<f64> = stdout
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(&l[l.find('{')?..]).ok())
+        .filter(|v| v["event"] == "iteration")
+        .filter_map(|v| v["seconds"].as_f64())
+        .collect();
+    times.into_iter().reduce(f64::min).context("mitsuba_grad.py reported no iteration")
 }

@@ -7,10 +7,10 @@
 //!     d/dθ ∫ h dω  ∋  ∫_circle [h(ω⁻) − h(ω⁺)] (−dn_g/dθ · ω) dφ,
 //! where ω± lie just above and below the plane. φ is sampled uniformly, both sides share their random numbers.
 
-use crate::grad::path::record::{record_from, PathRecord};
 use crate::grad::path::velocity::{PoseComponent, PoseLayout};
 use crate::render::bsdf::bsdf_eval;
 use crate::render::layout::{FrameParams, NONE, SHADING_HAS_NORMALS};
+use crate::render::path_trace::trace_from;
 use crate::render::sampler::Sampler;
 use crate::render::shading::{offset_origin, orthogonal, SurfacePoint};
 use crate::render::SceneData;
@@ -73,7 +73,6 @@ pub fn horizon_boundary(
     v: &HorizonVertex,
     sampler: impl Fn(u32) -> Sampler,
     count: u32,
-    sub: &mut PathRecord,
     grad: &mut [f64],
 ) {
     let sp = v.sp;
@@ -84,14 +83,13 @@ pub fn horizon_boundary(
         let phi = std::f32::consts::TAU * s.get(0);
         let (sin, cos) = phi.sin_cos();
         let om = t1 * cos + t2 * sin;
-        let mut side = |sign: f32| {
+        let side = |sign: f32| {
             let w = (om + sp.ng * (sign * SIDE_EPS)).normalize();
             let f = bsdf_eval(&sp.bsdf, v.wi, sp.to_local(w));
             if f == Vec3::ZERO {
                 return Vec3::ZERO;
             }
-            record_from(d, sub_fp, &s, offset_origin(sp.p, sp.ng, w), w, sub);
-            f * sub.radiance()
+            f * trace_from(d, sub_fp, &s, offset_origin(sp.p, sp.ng, w), w, &mut ()).radiance
         };
         let jump = side(-1.0) - side(1.0);
         if jump == Vec3::ZERO {

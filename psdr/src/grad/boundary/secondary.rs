@@ -19,11 +19,12 @@
 use crate::grad::boundary::edge_tree::EdgeTree;
 use crate::grad::boundary::horizon::{face_normal_velocity, has_horizon_jump, horizon_boundary, HorizonVertex};
 use crate::grad::boundary::mesh_edges::{mesh_edges, MeshEdge};
-use crate::grad::path::record::{record_from, PathRecord};
+use crate::grad::path::record::PathRecord;
 use crate::grad::path::velocity::PoseLayout;
 use crate::render::bsdf::bsdf_eval;
 use crate::render::bvh::trace_occluded;
 use crate::render::layout::FrameParams;
+use crate::render::path_trace::trace_from;
 use crate::render::sampler::Sampler;
 use crate::render::shading::{offset_origin, surface_point};
 use crate::render::SceneData;
@@ -129,7 +130,6 @@ pub fn secondary_boundary(
     if edges.is_empty() {
         return;
     }
-    let mut sub = PathRecord::default();
     let mut moving = Vec::with_capacity(path.active.len() + 8);
     let mut turning = Vec::with_capacity(path.active.len());
     let mut prev_p = rec.origin;
@@ -165,7 +165,7 @@ pub fn secondary_boundary(
                     pixel: s.pixel,
                     sample: s.sample * 4096 + k as u32 * 64 + j,
                 };
-                horizon_boundary(d, &sub_fp, &hv, sampler, count, &mut sub, grad);
+                horizon_boundary(d, &sub_fp, &hv, sampler, count, grad);
             }
         }
         // A vertex moves when its triangle or any earlier vertex does (ray form); then every edge moves
@@ -239,14 +239,13 @@ pub fn secondary_boundary(
             if trace_occluded(&d.nodes, &d.triangles, o, om, (q - o).length() * (1.0 - HIDDEN_MARGIN)) {
                 continue;
             }
-            let mut side = |sign: f32| {
+            let side = |sign: f32| {
                 let w = (om + n_hat * (sign * SIDE_EPS)).normalize();
                 let f = bsdf_eval(&sp.bsdf, wi, sp.to_local(w));
                 if f == Vec3::ZERO {
                     return Vec3::ZERO;
                 }
-                record_from(d, &sub_fp, &es, offset_origin(sp.p, sp.ng, w), w, &mut sub);
-                f * sub.radiance()
+                f * trace_from(d, &sub_fp, &es, offset_origin(sp.p, sp.ng, w), w, &mut ()).radiance
             };
             let jump = side(-1.0) - side(1.0);
             if jump == Vec3::ZERO {

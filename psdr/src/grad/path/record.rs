@@ -7,8 +7,7 @@ use crate::render::bsdf::BsdfParams;
 use crate::render::bvh::Hit;
 use crate::render::layout::{FrameParams, NONE};
 use crate::render::light::select_light;
-use crate::render::path_trace::{trace_from, trace_path_observed, ContinueEvent, NeeEvent, PathObserver};
-use crate::render::sampler::*;
+use crate::render::path_trace::{trace_path_observed, ContinueEvent, NeeEvent, PathObserver};
 use crate::render::shading::SurfacePoint;
 use crate::render::SceneData;
 use glam::{Vec2, Vec3};
@@ -92,13 +91,6 @@ impl PathRecord {
 pub fn record_path(d: &SceneData, fp: &FrameParams, px: u32, py: u32, sample: u32, rec: &mut PathRecord) {
     rec.vertices.clear();
     trace_path_observed(d, fp, px, py, sample, &mut Recorder { d, fp, rec });
-}
-
-/// Records the path that starts with the camera ray (origin, dir), drawing bounce numbers from `s`: the
-/// renderer's own integrator (`render::path_trace::trace_from`) reports each vertex to the recorder.
-pub fn record_from(d: &SceneData, fp: &FrameParams, s: &Sampler, origin: Vec3, dir: Vec3, rec: &mut PathRecord) {
-    rec.vertices.clear();
-    trace_from(d, fp, s, origin, dir, &mut Recorder { d, fp, rec });
 }
 
 /// The observer that writes a `PathRecord`.
