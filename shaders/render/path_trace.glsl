@@ -31,6 +31,7 @@ struct PathSample {
     vec3 albedo;
     uint object;
     uint rays;
+    vec3 first_emission;
 };
 
 // True when nothing blocks the segment from surface point p (normal ng) to light point q (normal nq).
@@ -46,7 +47,7 @@ bool unoccluded(vec3 p, vec3 ng, vec3 q, vec3 nq) {
 PathSample trace_from(FrameParams fp, Sampler s, vec3 origin, vec3 dir) {
     CameraGpu cam = camera[0];
     OBSERVE_START(origin, dir);
-    PathSample out_ = PathSample(vec3(0.0), 0.0, vec3(0.0), vec3(0.0), NONE, 0u);
+    PathSample out_ = PathSample(vec3(0.0), 0.0, vec3(0.0), vec3(0.0), NONE, 0u, vec3(0.0));
     vec3 beta = vec3(1.0);
     float prev_bsdf_pdf = 0.0;
     for (uint depth = 0u; depth < fp.max_depth; depth++) {
@@ -69,6 +70,7 @@ PathSample trace_from(FrameParams fp, Sampler s, vec3 origin, vec3 dir) {
             uint emitter = shading[hit.triangle].emitter;
             if (depth == 0u) {
                 out_.radiance += beta * le;
+                out_.first_emission = beta * le;
                 OBSERVE_EMISSION(emitter, le, 1.0);
             } else {
                 float cos_l = abs(dot3(sp.ng, -dir));

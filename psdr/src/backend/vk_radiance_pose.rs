@@ -168,7 +168,7 @@ impl VkBackend {
             rows_in_order(ctx, &self.radiance_pose_vjp, &inputs, &tail, push, pixels, per_pass, &mut grad)?;
             return Ok(Some(grad));
         }
-        let words = SecondaryEdges::build(scene, |o| pose.moves(o)).gpu_words();
+        let words = SecondaryEdges::build(scene, pose).gpu_words();
         (params.moving_root, params.static_root, params.moving_edges) =
             (words.moving_root, words.static_root, words.moving);
         let tail = [

@@ -7,6 +7,7 @@
 //! | radiance | object poses, mesh vertices | interior: ray-form replay in dual numbers | `replay_radiance` (interior/geometry.rs; normal maps interior/normal_map.rs), called by `radiance_pose_vjp` (vjp/radiance_pose.rs; on Vulkan for poses: shaders/grad/interior/geometry.glsl) |
 //! | radiance | poses, vertices | primary boundary: silhouettes seen by the camera | `primary_boundary` (boundary/primary.rs), `radiance_primary_boundary` (vjp/radiance_pose.rs; on Vulkan for poses: shaders/grad/vjp/radiance_pose.comp) |
 //! | radiance | poses, vertices | secondary boundary: direct (shadows) and indirect | `secondary_boundary` (boundary/secondary.rs; candidate edges from boundary/edge_tree.rs over boundary/mesh_edges.rs; on Vulkan for poses: shaders/grad/boundary/secondary.glsl) |
+//! | radiance | poses | secondary boundary, direct shadows seen by the camera: the light's emitted jump across moving silhouettes, sampled from the lights (edge point, light point, then the shadowed point) | `shadow_boundary` (boundary/shadow.rs; on the host for either backend) |
 //! | radiance | poses, vertices | horizon boundary: a vertex's own tangent plane | `horizon_boundary` (boundary/horizon.rs) |
 //! | depth, masks | poses, vertices | interior (depth only) + primary boundary | `aov_vjp`, `aovs_vjp` (vjp/aov.rs; on Vulkan for poses: shaders/grad/vjp/aov.comp) |
 //! | depth, masks | materials, lights | none (zero) | |

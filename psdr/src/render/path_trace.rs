@@ -23,6 +23,9 @@ pub struct PathSample {
     pub object: u32,
     /// Rays traced (closest-hit and shadow).
     pub rays: u32,
+    /// Radiance emitted by the first surface hit toward the ray (part of `radiance`; the secondary boundary
+    /// leaves it to the light-side shadow estimator where that owns it).
+    pub first_emission: Vec3,
 }
 
 /// A next-event estimate that reached its light, as the integrator computed it.
@@ -114,8 +117,15 @@ pub fn trace_from<O: PathObserver>(
     let cam = &d.camera;
     obs.start(origin, dir);
     let (mut origin, mut dir) = (origin, dir);
-    let mut out =
-        PathSample { radiance: Vec3::ZERO, depth: 0.0, normal: Vec3::ZERO, albedo: Vec3::ZERO, object: NONE, rays: 0 };
+    let mut out = PathSample {
+        radiance: Vec3::ZERO,
+        depth: 0.0,
+        normal: Vec3::ZERO,
+        albedo: Vec3::ZERO,
+        object: NONE,
+        rays: 0,
+        first_emission: Vec3::ZERO,
+    };
     let mut beta = Vec3::ONE;
     let mut prev_bsdf_pdf = 0.0f32;
     for depth in 0..fp.max_depth {
@@ -137,6 +147,7 @@ pub fn trace_from<O: PathObserver>(
             let emitter = d.shading[hit.triangle as usize].emitter;
             if depth == 0 {
                 out.radiance += beta * le;
+                out.first_emission = beta * le;
                 obs.emission(emitter, le, 1.0);
             } else {
                 let cos_l = sp.ng.dot(-dir).abs();

@@ -1,5 +1,6 @@
 // Welded mesh edges as the GPU reads them (SecondaryEdges::gpu_words, MESH_EDGE_WORDS an edge): endpoints,
-// object, whether two faces meet there and whether that is a shading crease, the faces' normals, the edge's
+// object, whether two faces meet there, whether that is a shading crease and whether its shadows' emitted part
+// belongs to the light-side estimator, the faces' normals, the edge's
 // strength (precomputed on the host) and the welded ids of its ends. The including kernel declares the buffer sec_edge_words (uint).
 // Rust twin: psdr/src/grad/boundary/mesh_edges.rs (MeshEdge::is_silhouette_from).
 // GLSL only: mesh_edge, edge_vec3 (unpack an edge from its words).
@@ -21,6 +22,9 @@ struct MeshEdge {
     // The welded ids of the edge's ends.
     uint end0;
     uint end1;
+    // Seen from camera-visible vertices, the emitted part of its jump is the light-side shadow estimator's
+    // (SecondaryEdges::leaves_emission).
+    bool light_side;
 };
 
 vec3 edge_vec3(uint at) {
@@ -33,7 +37,7 @@ MeshEdge mesh_edge(uint i) {
     uint flags = sec_edge_words[w + 7u];
     return MeshEdge(edge_vec3(w), sec_edge_words[w + 3u], edge_vec3(w + 4u), (flags & 1u) != 0u, (flags & 2u) != 0u,
                     edge_vec3(w + 8u), uintBitsToFloat(sec_edge_words[w + 11u]), edge_vec3(w + 12u),
-                    sec_edge_words[w + 15u], sec_edge_words[w + 16u]);
+                    sec_edge_words[w + 15u], sec_edge_words[w + 16u], (flags & 4u) != 0u);
 }
 
 // One face (a border) or several (non-manifold): always a silhouette; two: when they face x differently.

@@ -170,6 +170,8 @@ void secondary_boundary(vec3 delta, uint seed, uint pixel, uint sample_, uint co
             if (trace_occluded(o, om, length3(q - o) * (1.0 - HIDDEN_MARGIN))) {
                 continue;
             }
+            // The emitted part of the side paths' first hits is the light-side estimator's here.
+            bool leave_emission = k == 0u && e.light_side;
             vec3 jump = vec3(0.0);
             for (int side = 0; side < 2; side++) {
                 float sign_ = side == 0 ? -1.0 : 1.0;
@@ -179,7 +181,8 @@ void secondary_boundary(vec3 delta, uint seed, uint pixel, uint sample_, uint co
                     continue;
                 }
                 rec_enabled = false;
-                vec3 l = trace_from(sub_fp, es, offset_origin(sp.p, sp.ng, w), w).radiance;
+                PathSample ls = trace_from(sub_fp, es, offset_origin(sp.p, sp.ng, w), w);
+                vec3 l = leave_emission ? ls.radiance - ls.first_emission : ls.radiance;
                 rec_enabled = true;
                 jump += (side == 0 ? 1.0 : -1.0) * (f * l);
             }

@@ -19,6 +19,8 @@ pub struct Face {
     pub material: usize,
     /// Shading normals at the edge's two endpoints (the face normal when the part has none).
     pub shading: [Vec3; 2],
+    /// From the edge into the face: the triangle's third corner minus its part along the edge (not unit).
+    pub inward: Vec3,
 }
 
 #[derive(Clone, Debug)]
@@ -108,7 +110,9 @@ pub fn mesh_edges(scene: &Scene, wanted: impl Fn(u32) -> bool) -> Vec<MeshEdge> 
                     });
                     let same_dir = edges[at].a == vs[k];
                     let shading = if same_dir { [sn(ia), sn(ib)] } else { [sn(ib), sn(ia)] };
-                    edges[at].faces.push(Face { normal: n, material: part.material, shading });
+                    let (ab, third) = (vs[(k + 1) % 3] - vs[k], vs[(k + 2) % 3] - vs[k]);
+                    let inward = third - ab * (third.dot(ab) / ab.length_squared());
+                    edges[at].faces.push(Face { normal: n, material: part.material, shading, inward });
                 }
             }
         }

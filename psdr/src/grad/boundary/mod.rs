@@ -5,3 +5,4 @@ pub(crate) mod horizon;
 pub(crate) mod mesh_edges;
 pub(crate) mod primary;
 pub(crate) mod secondary;
+pub(crate) mod shadow;

@@ -49,25 +49,37 @@ pub struct SecondaryEdges {
     /// Culling trees over the moving edges and over the others.
     moving_tree: EdgeTree,
     static_tree: EdgeTree,
+    /// Per object: it emits (its edges' shadows stay with this estimator; see `leaves_emission`).
+    emitting: Vec<bool>,
 }
 
 impl SecondaryEdges {
-    pub fn build(scene: &Scene, moving: impl Fn(u32) -> bool) -> SecondaryEdges {
-        let mut edges = mesh_edges(scene, &moving);
+    /// The edges of the scene for the pose layout's moving objects.
+    pub fn build(scene: &Scene, pose: &PoseLayout) -> SecondaryEdges {
+        let moving = |o: u32| pose.moves(o);
+        let mut edges = mesh_edges(scene, moving);
         let n = edges.len();
         edges.extend(mesh_edges(scene, |o| !moving(o)));
         let (moving_tree, static_tree) = (EdgeTree::build(&edges[..n], 0), EdgeTree::build(&edges[n..], n));
-        SecondaryEdges { edges, moving: n, moving_tree, static_tree }
+        let emitting = scene.objects.iter().map(|o| o.emitter.is_some()).collect();
+        SecondaryEdges { edges, moving: n, moving_tree, static_tree, emitting }
     }
 
     pub fn is_empty(&self) -> bool {
         self.moving == 0
     }
 
+    /// True when the radiance emitted at the side rays' first hits is left to the light-side shadow estimator
+    /// (boundary/shadow.rs) for edge `i` seen from vertex `k`: camera-visible vertices and edges of moving
+    /// objects that do not emit.
+    pub fn leaves_emission(&self, i: usize, k: usize) -> bool {
+        k == 0 && i < self.moving && !self.emitting[self.edges[i].object as usize]
+    }
+
     /// The edges and trees as the GPU reads them (shaders/grad/boundary/secondary.glsl).
     pub fn gpu_words(&self) -> SecondaryWords {
         let mut edges = Vec::with_capacity(self.edges.len() * MESH_EDGE_WORDS);
-        for e in &self.edges {
+        for (i, e) in self.edges.iter().enumerate() {
             let (two, n1, n2) = match e.faces.as_slice() {
                 [f1, f2] => (true, f1.normal, f2.normal),
                 _ => (false, Vec3::ZERO, Vec3::ZERO),
@@ -75,7 +87,8 @@ impl SecondaryEdges {
             edges.extend(e.a.to_array().map(f32::to_bits));
             edges.push(e.object);
             edges.extend(e.b.to_array().map(f32::to_bits));
-            edges.push(u32::from(two) | (u32::from(e.is_crease()) << 1));
+            let light_side = self.leaves_emission(i, 0);
+            edges.push(u32::from(two) | (u32::from(e.is_crease()) << 1) | (u32::from(light_side) << 2));
             edges.extend(n1.to_array().map(f32::to_bits));
             edges.push(e.strength().to_bits());
             edges.extend(n2.to_array().map(f32::to_bits));
@@ -88,7 +101,8 @@ impl SecondaryEdges {
     }
 }
 
-/// Words per edge in `SecondaryEdges::gpu_words`: a, object, b, flags (1 two faces, 2 crease), the first face's
+/// Words per edge in `SecondaryEdges::gpu_words`: a, object, b, flags (1 two faces, 2 crease, 4 its shadows'
+/// emitted part is the light-side estimator's from unmoving camera-visible vertices), the first face's
 /// normal, strength, the second face's normal, the ends' welded ids, unused.
 pub const MESH_EDGE_WORDS: usize = 20;
 
@@ -239,13 +253,15 @@ pub fn secondary_boundary(
             if trace_occluded(&d.nodes, &d.triangles, o, om, (q - o).length() * (1.0 - HIDDEN_MARGIN)) {
                 continue;
             }
+            let leave_emission = edges.leaves_emission(edge, k);
             let side = |sign: f32| {
                 let w = (om + n_hat * (sign * SIDE_EPS)).normalize();
                 let f = bsdf_eval(&sp.bsdf, wi, sp.to_local(w));
                 if f == Vec3::ZERO {
                     return Vec3::ZERO;
                 }
-                f * trace_from(d, &sub_fp, &es, offset_origin(sp.p, sp.ng, w), w, &mut ()).radiance
+                let l = trace_from(d, &sub_fp, &es, offset_origin(sp.p, sp.ng, w), w, &mut ());
+                f * if leave_emission { l.radiance - l.first_emission } else { l.radiance }
             };
             let jump = side(-1.0) - side(1.0);
             if jump == Vec3::ZERO {

@@ -26,7 +26,8 @@ pub struct AdOptions {
     pub replicas: u32,
     /// Primary boundary (camera silhouette) samples per evaluation (sppe).
     pub edge_samples: u32,
-    /// Secondary boundary (shadow and indirect) samples per scattering path vertex (sppse).
+    /// Secondary boundary (shadow and indirect) samples per scattering path vertex (sppse); as many again
+    /// light-side direct-shadow samples per camera path (boundary/shadow.rs).
     pub secondary_edge_samples: u32,
 }
 

@@ -7,6 +7,7 @@ use crate::backend::Backend;
 use crate::error::Result;
 use crate::grad::boundary::primary::{primary_boundary, PixelAdjoint, PrimaryEdges};
 use crate::grad::boundary::secondary::{secondary_boundary, SecondaryEdges, SecondaryPath};
+use crate::grad::boundary::shadow::{shadow_boundary, shadow_sample_count, ShadowEdges};
 use crate::grad::interior::geometry::{entries_touching, replay_radiance, Tangent};
 use crate::grad::path::record::{record_path, PathRecord};
 use crate::grad::path::velocity::PoseLayout;
@@ -24,7 +25,8 @@ use glam::Vec3;
 pub struct BoundarySamples {
     /// Primary (camera silhouette) edge samples per evaluation (sppe).
     pub primary: u32,
-    /// Secondary (shadow and indirect) edge samples per path vertex (sppse); 0 turns them off.
+    /// Secondary (shadow and indirect) edge samples per path vertex (sppse), and as many light-side shadow
+    /// samples per camera path; 0 turns them off.
     pub secondary: u32,
 }
 
@@ -48,6 +50,14 @@ pub fn radiance_pose_vjp(
     };
     let primary = backend.radiance_primary_boundary(scene, d, settings, pose, adjoint, samples.primary)?;
     grad.iter_mut().zip(primary).for_each(|(g, p)| *g += p);
+    if samples.secondary > 0 {
+        // The direct-shadow part the path-vertex estimator leaves out, sampled from the lights (on the host
+        // for either backend: a few rays a sample).
+        let fp = frame_params(d, settings);
+        let count = shadow_sample_count(samples.secondary, w as u32 * h as u32 * fp.spp);
+        let shadow = shadow_boundary(d, &fp, pose, &ShadowEdges::build(scene, pose), adjoint, count);
+        grad.iter_mut().zip(shadow).for_each(|(g, s)| *g += s);
+    }
     Ok(grad)
 }
 
@@ -64,7 +74,7 @@ fn interior_and_secondary(
 ) -> Vec<f64> {
     let (w, h) = (d.camera.width as usize, d.camera.height as usize);
     let fp = frame_params(d, settings);
-    let secondary = SecondaryEdges::build(scene, |o| pose.moves(o));
+    let secondary = SecondaryEdges::build(scene, pose);
     accumulate_blocks(h, pose.len, |rows, g| {
         let mut rec = PathRecord::default();
         // Vertex velocities of the path under each active entry (indexed like `active`).
