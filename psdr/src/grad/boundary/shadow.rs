@@ -22,7 +22,7 @@ use crate::grad::boundary::mesh_edges::{mesh_edges, MeshEdge};
 use crate::grad::boundary::primary::project;
 use crate::grad::path::velocity::PoseLayout;
 use crate::render::bsdf::bsdf_eval;
-use crate::render::bvh::{trace_closest, trace_occluded};
+use crate::render::bvh::trace_closest;
 use crate::render::layout::FrameParams;
 use crate::render::light::{emitted_radiance, sample_light};
 use crate::render::sampler::Sampler;
@@ -197,8 +197,11 @@ fn shadow_sample(
     let to_x = x - eye;
     let r_c = to_x.length();
     let dir_c = to_x / r_c;
-    if trace_occluded(&d.nodes, &d.triangles, eye, dir_c, r_c * (1.0 - EDGE_MARGIN)) {
-        return;
+    // The camera's first hit must be x's own triangle (a distance margin would let the camera see floor points
+    // just behind an object's foot, where contact shadows are strongest).
+    match trace_closest(&d.nodes, &d.triangles, eye, dir_c, f32::INFINITY) {
+        Some(seen) if seen.triangle == hit.triangle => {}
+        _ => return,
     }
     let pixel = (py as u32 * cam.width + px as u32) as usize * 3;
     let a = Vec3::from_slice(&adjoint[pixel..pixel + 3]);
