@@ -101,8 +101,8 @@ impl SecondaryEdges {
     }
 }
 
-/// Words per edge in `SecondaryEdges::gpu_words`: a, object, b, flags (1 two faces, 2 crease, 4 its shadows'
-/// emitted part is the light-side estimator's from unmoving camera-visible vertices), the first face's
+/// Words per edge in `SecondaryEdges::gpu_words`: a, object, b, flags (1 two faces, 2 crease, 4 seen from
+/// camera-visible vertices, the emitted part of its jump is the light-side estimator's), the first face's
 /// normal, strength, the second face's normal, the ends' welded ids, unused.
 pub const MESH_EDGE_WORDS: usize = 20;
 

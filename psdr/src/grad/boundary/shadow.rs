@@ -33,10 +33,10 @@ use glam::Vec3;
 
 /// Seed tweak separating these samples from every other stream.
 const SHADOW_SEED: u32 = 0x510e_527f;
-/// Relative distance within which a hit counts as the edge itself (the face side of the line through q).
+/// Relative distance beyond q (of the light's distance) within which a hit counts as q itself, not as x.
 const EDGE_MARGIN: f32 = 1e-3;
-/// Angular offset of the two side directions at x (as `secondary_boundary`'s) and the offset, relative to the
-/// distance, of the two rays from the light past either side of q.
+/// Angular offset of the two side directions at x (as `secondary_boundary`'s), and the offset, relative to the
+/// distance, of the ray from the light past q on the side away from the edge's faces.
 const SIDE_EPS: f32 = 1e-4;
 
 /// Light-side samples per camera path per secondary edge sample (sppse).
