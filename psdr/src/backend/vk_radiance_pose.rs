@@ -36,11 +36,12 @@ pub struct RadiancePoseParams {
     /// PRIMARY (0) or INTERIOR (1).
     pub mode: u32,
     /// Secondary edge samples per scattering vertex (the secondary kernel only), the roots of the moving and
-    /// static edge trees (NONE when empty) and the number of moving edges.
+    /// static edge trees (NONE when empty), the number of moving edges and whether any belongs to an emitter.
     pub secondary_samples: u32,
     pub moving_root: u32,
     pub static_root: u32,
     pub moving_edges: u32,
+    pub moving_emits: u32,
 }
 
 /// Pose entries whose vertex velocities the secondary kernel keeps per path (MAX_ACTIVE in
@@ -169,8 +170,8 @@ impl VkBackend {
             return Ok(Some(grad));
         }
         let words = SecondaryEdges::build(scene, pose).gpu_words();
-        (params.moving_root, params.static_root, params.moving_edges) =
-            (words.moving_root, words.static_root, words.moving);
+        (params.moving_root, params.static_root, params.moving_edges, params.moving_emits) =
+            (words.moving_root, words.static_root, words.moving, u32::from(words.moving_emits));
         let tail = [
             Box::new(upload(ctx, "sec_edge_words", &words.edges)?) as Box<dyn StorageBinding>,
             Box::new(upload(ctx, "tree_words", &words.nodes)?) as Box<dyn StorageBinding>,

@@ -14,6 +14,8 @@
 #include "render/vec_math.glsl"
 
 const uint NODE_WORDS = 16u;
+// The most edges in one leaf.
+const uint LEAF_EDGES = 8u;
 
 struct EdgeNode {
     vec3 lo;
@@ -91,9 +93,12 @@ bool edge_tree_sample(uint root, vec3 x, vec3 ng, double u, out uint edge, out f
     while (true) {
         EdgeNode n = edge_node(i);
         if (n.prim_count > 0u) {
+            // Each edge's weight once (the weight is the costly part of a draw).
+            double w[LEAF_EDGES];
             double total = 0.0LF;
-            for (uint s = n.first; s < n.first + n.prim_count; s++) {
-                total += double(edge_weight(edge_order[s], x, ng));
+            for (uint j = 0u; j < n.prim_count; j++) {
+                w[j] = double(edge_weight(edge_order[n.first + j], x, ng));
+                total += w[j];
             }
             if (isnan(total) || total <= 0.0LF) {
                 return false;
@@ -102,16 +107,14 @@ bool edge_tree_sample(uint root, vec3 x, vec3 ng, double u, out uint edge, out f
             bool found = false;
             uint last_e = 0u;
             double last_w = 0.0LF;
-            for (uint s = n.first; s < n.first + n.prim_count; s++) {
-                uint e = edge_order[s];
-                double w = double(edge_weight(e, x, ng));
-                if (w <= 0.0LF) {
+            for (uint j = 0u; j < n.prim_count; j++) {
+                if (w[j] <= 0.0LF) {
                     continue;
                 }
                 found = true;
-                last_e = e;
-                last_w = w;
-                acc += w;
+                last_e = edge_order[n.first + j];
+                last_w = w[j];
+                acc += w[j];
                 if (u * total < acc) {
                     break;
                 }

@@ -22,7 +22,7 @@ struct MeshEdge {
     // The welded ids of the edge's ends.
     uint end0;
     uint end1;
-    // Seen from camera-visible vertices, the emitted part of its jump is the light-side shadow estimator's
+    // Seen from vertices light_side_vertex accepts, the emitted part of its jump is the light-side shadow estimator's
     // (SecondaryEdges::leaves_emission).
     bool light_side;
 };

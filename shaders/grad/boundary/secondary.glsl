@@ -5,8 +5,8 @@
 // also get horizon samples (grad/boundary/horizon.glsl). The including kernel provides the recorded path, the
 // pose entries (grad/boundary/primary.glsl), the active entries and their replayed vertex velocities
 // (grad/interior/geometry.glsl), the edge and tree buffers, grad_rows and the push constants moving_root,
-// static_root and moving_edges.
-// Rust twin: psdr/src/grad/boundary/secondary.rs (secondary_boundary).
+// static_root, moving_edges and moving_emits.
+// Rust twin: psdr/src/grad/boundary/secondary.rs (light_side_vertex, secondary_boundary).
 // GLSL only: edge_weight, active_slot, active_tangent, edge_sample_share (the closure secondary_boundary gives the
 // tree; an entry's place among the active ones, its tangent; the body of its loop over moving entries).
 #ifndef PSDR_SECONDARY_GLSL
@@ -81,6 +81,12 @@ void edge_sample_share(uint at, vec3 edge_velocity, vec3 x_velocity, vec3 om, fl
     grad_rows[row + at] += scale * dot3(v_dir, n_hat);
 }
 
+// Whether the light-side estimator (the host's shadow_boundary) samples the direct shadows of moving edges seen at
+// vertex k of a camera path: the camera's own hits and the vertices after them.
+bool light_side_vertex(uint k) {
+    return k <= 1u;
+}
+
 void secondary_boundary(vec3 delta, uint seed, uint pixel, uint sample_, uint count, uint row) {
     if (moving_edges == 0u) {
         return;
@@ -125,7 +131,11 @@ void secondary_boundary(vec3 delta, uint seed, uint pixel, uint sample_, uint co
         for (uint j = 0u; j < active_count; j++) {
             x_moves = x_moves || replay_velocity[j * MAX_RECORD_DEPTH + k] != vec3(0.0);
         }
-        float wm = edge_tree_root_importance(moving_root, sp.p, sp.ng);
+        // Where the side paths end at their first hits (only emission left) and the light-side estimator owns
+        // what moving edges change there, only static edges are left to sample (when x moves).
+        bool light_side = light_side_vertex(k);
+        bool moving_left = light_side && sub_fp.max_depth <= 1u && moving_emits == 0u;
+        float wm = moving_left ? 0.0 : edge_tree_root_importance(moving_root, sp.p, sp.ng);
         float ws = x_moves ? edge_tree_root_importance(static_root, sp.p, sp.ng) : 0.0;
         if (isnan(wm + ws) || wm + ws <= 0.0) {
             continue;
@@ -171,7 +181,7 @@ void secondary_boundary(vec3 delta, uint seed, uint pixel, uint sample_, uint co
                 continue;
             }
             // The emitted part of the side paths' first hits is the light-side estimator's here.
-            bool leave_emission = k == 0u && e.light_side;
+            bool leave_emission = light_side && e.light_side;
             vec3 jump = vec3(0.0);
             for (int side = 0; side < 2; side++) {
                 float sign_ = side == 0 ? -1.0 : 1.0;

@@ -28,6 +28,7 @@ layout(push_constant) uniform Push {
     uint moving_root;
     uint static_root;
     uint moving_edges;
+    uint moving_emits;
 };
 
 const uint PRIMARY = 0u;

@@ -59,6 +59,25 @@ pub fn indirect_scene() -> Scene {
     )
 }
 
+/// A red box the camera sees, under a light, over a floor: its shadow is seen directly and after a bounce off
+/// the box's own faces (camera path vertices on the moving object, then on the floor in its penumbra).
+pub fn shadow_seen_off_the_occluder() -> Scene {
+    scene_from_json(
+        "seen",
+        r#"{ "format": "psdr-scene", "version": 1,
+      "camera": { "origin": [0.3, 1.1, 2.0], "target": [0, 0.5, 0.0], "up": [0, 1, 0], "fov_y": 40, "width": 32, "height": 24 },
+      "render": { "spp": 32, "max_depth": 3 },
+      "materials": [ { "name": "white", "albedo": 0.8, "specular": 0 }, { "name": "red", "albedo": [0.8, 0.3, 0.2], "specular": 0 } ],
+      "shapes": [
+        { "name": "floor", "type": "rectangle", "size": [6, 6], "material": "white", "transform": { "rotation_deg": [-90, 0, 0] } },
+        { "name": "wall", "type": "rectangle", "size": [6, 3], "material": "white", "transform": { "translation": [0, 1.5, -1] } },
+        { "name": "blocker", "type": "box", "size": [0.4, 0.3, 0.4], "material": "red",
+          "transform": { "translation": [0, 0.7, 0.1], "rotation_deg": [0, 20, 0] } },
+        { "name": "lamp", "type": "rectangle", "size": [0.5, 0.5], "material": "white",
+          "transform": { "translation": [0, 2.0, 0.1], "rotation_deg": [90, 0, 0] }, "emitter": { "radiance": 8 } } ] }"#,
+    )
+}
+
 /// A flat-shaded coloured cube on the floor of a closed room under a ceiling light (the case where projective
 /// methods fail: creases between differently lit faces, and the contact edge with the floor): the shipped
 /// examples/cube_room (also bench_grad's scene) at 48x36 and 32 spp, the cube raised by `lift`.

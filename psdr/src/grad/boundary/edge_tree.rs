@@ -22,6 +22,9 @@ struct Cone {
     crease: bool,
 }
 
+/// The most edges in one leaf (the descent weighs a leaf's edges once, into a buffer of this size).
+pub const LEAF_EDGES: usize = 8;
+
 /// Words per node in `EdgeTree::append_gpu_words`.
 pub const NODE_WORDS: usize = 16;
 
@@ -41,7 +44,8 @@ impl EdgeTree {
             return EdgeTree { nodes: vec![], cones: vec![], lengths: vec![], order: vec![] };
         }
         let aabbs: Vec<Aabb> = edges.iter().map(|e| Aabb::new(e.a.min(e.b).into(), e.a.max(e.b).into())).collect();
-        let bvh = build_bvh2(&aabbs, BvhBuildParams::medium_build(), &mut Duration::default());
+        let params = BvhBuildParams { max_prims_per_leaf: LEAF_EDGES as u32, ..BvhBuildParams::medium_build() };
+        let bvh = build_bvh2(&aabbs, params, &mut Duration::default());
         let order: Vec<u32> = bvh.primitive_indices.iter().map(|&i| i + offset as u32).collect();
         // Post-order (children before parents), then each node's cone from its edges or its children's cones.
         let mut post = Vec::with_capacity(bvh.nodes.len());
@@ -170,21 +174,25 @@ impl EdgeTree {
         loop {
             let n = &self.nodes[i];
             if n.prim_count > 0 {
-                let slots = n.first_index as usize..(n.first_index + n.prim_count) as usize;
-                let total: f64 = slots.clone().map(|s| weight(self.order[s] as usize) as f64).sum();
+                // Each edge's weight once (the weight is the costly part of a draw).
+                let first = n.first_index as usize;
+                let mut w = [0.0f64; LEAF_EDGES];
+                let mut total = 0.0;
+                for (j, wj) in w.iter_mut().enumerate().take(n.prim_count as usize) {
+                    *wj = weight(self.order[first + j] as usize) as f64;
+                    total += *wj;
+                }
                 if total.is_nan() || total <= 0.0 {
                     return None;
                 }
                 let mut acc = 0.0;
                 let mut last = None;
-                for s in slots {
-                    let e = self.order[s] as usize;
-                    let w = weight(e) as f64;
-                    if w <= 0.0 {
+                for (j, &wj) in w.iter().enumerate().take(n.prim_count as usize) {
+                    if wj <= 0.0 {
                         continue;
                     }
-                    last = Some((e, w));
-                    acc += w;
+                    last = Some((self.order[first + j] as usize, wj));
+                    acc += wj;
                     if u * total < acc {
                         break;
                     }

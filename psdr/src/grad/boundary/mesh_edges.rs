@@ -74,6 +74,35 @@ impl MeshEdge {
     }
 }
 
+/// What an edge sampler tests at every draw, packed without the faces' list (the GPU's `MeshEdge` in
+/// shaders/grad/boundary/mesh_edges.glsl holds the same): endpoints, the two faces' normals (zero unless exactly
+/// two faces meet), `MeshEdge::is_crease` and `MeshEdge::strength`.
+#[derive(Clone, Copy, Debug)]
+pub struct EdgeShape {
+    pub a: Vec3,
+    pub b: Vec3,
+    pub n1: Vec3,
+    pub n2: Vec3,
+    pub two_faces: bool,
+    pub crease: bool,
+    pub strength: f32,
+}
+
+impl EdgeShape {
+    pub fn of(e: &MeshEdge) -> EdgeShape {
+        let (two_faces, n1, n2) = match e.faces.as_slice() {
+            [f1, f2] => (true, f1.normal, f2.normal),
+            _ => (false, Vec3::ZERO, Vec3::ZERO),
+        };
+        EdgeShape { a: e.a, b: e.b, n1, n2, two_faces, crease: e.is_crease(), strength: e.strength() }
+    }
+
+    /// `MeshEdge::is_silhouette_from`.
+    pub fn is_silhouette_from(&self, x: Vec3) -> bool {
+        !self.two_faces || (self.n1.dot(x - self.a) > 0.0) != (self.n2.dot(x - self.a) > 0.0)
+    }
+}
+
 /// All welded edges of the objects for which `wanted(object)` holds, in a deterministic order.
 pub fn mesh_edges(scene: &Scene, wanted: impl Fn(u32) -> bool) -> Vec<MeshEdge> {
     let mut by_key: HashMap<(u32, u32, u32), usize> = HashMap::new();

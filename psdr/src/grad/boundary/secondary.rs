@@ -18,7 +18,7 @@
 
 use crate::grad::boundary::edge_tree::EdgeTree;
 use crate::grad::boundary::horizon::{face_normal_velocity, has_horizon_jump, horizon_boundary, HorizonVertex};
-use crate::grad::boundary::mesh_edges::{mesh_edges, MeshEdge};
+use crate::grad::boundary::mesh_edges::{mesh_edges, EdgeShape, MeshEdge};
 use crate::grad::path::record::PathRecord;
 use crate::grad::path::velocity::PoseLayout;
 use crate::render::bsdf::bsdf_eval;
@@ -45,12 +45,16 @@ const HORIZON_SEED: u32 = 0x3c6e_f372;
 /// relative to itself.
 pub struct SecondaryEdges {
     edges: Vec<MeshEdge>,
+    /// `edges` packed for the draws' weights.
+    shapes: Vec<EdgeShape>,
     moving: usize,
     /// Culling trees over the moving edges and over the others.
     moving_tree: EdgeTree,
     static_tree: EdgeTree,
     /// Per object: it emits (its edges' shadows stay with this estimator; see `leaves_emission`).
     emitting: Vec<bool>,
+    /// Some moving edge belongs to an emitting object.
+    moving_emits: bool,
 }
 
 impl SecondaryEdges {
@@ -61,8 +65,10 @@ impl SecondaryEdges {
         let n = edges.len();
         edges.extend(mesh_edges(scene, |o| !moving(o)));
         let (moving_tree, static_tree) = (EdgeTree::build(&edges[..n], 0), EdgeTree::build(&edges[n..], n));
-        let emitting = scene.objects.iter().map(|o| o.emitter.is_some()).collect();
-        SecondaryEdges { edges, moving: n, moving_tree, static_tree, emitting }
+        let emitting: Vec<bool> = scene.objects.iter().map(|o| o.emitter.is_some()).collect();
+        let shapes = edges.iter().map(EdgeShape::of).collect();
+        let moving_emits = edges[..n].iter().any(|e| emitting[e.object as usize]);
+        SecondaryEdges { edges, shapes, moving: n, moving_tree, static_tree, emitting, moving_emits }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -70,39 +76,41 @@ impl SecondaryEdges {
     }
 
     /// True when the radiance emitted at the side rays' first hits is left to the light-side shadow estimator
-    /// (boundary/shadow.rs) for edge `i` seen from vertex `k`: camera-visible vertices and edges of moving
+    /// (boundary/shadow.rs) for edge `i` seen from a vertex `light_side_vertex` accepts: edges of moving
     /// objects that do not emit.
-    pub fn leaves_emission(&self, i: usize, k: usize) -> bool {
-        k == 0 && i < self.moving && !self.emitting[self.edges[i].object as usize]
+    pub fn leaves_emission(&self, i: usize, light_side: bool) -> bool {
+        light_side && i < self.moving && !self.emitting[self.edges[i].object as usize]
+    }
+
+    /// Some moving edge's emitted jumps stay with this estimator everywhere (it belongs to an emitter).
+    pub fn moving_emits(&self) -> bool {
+        self.moving_emits
     }
 
     /// The edges and trees as the GPU reads them (shaders/grad/boundary/secondary.glsl).
     pub fn gpu_words(&self) -> SecondaryWords {
         let mut edges = Vec::with_capacity(self.edges.len() * MESH_EDGE_WORDS);
-        for (i, e) in self.edges.iter().enumerate() {
-            let (two, n1, n2) = match e.faces.as_slice() {
-                [f1, f2] => (true, f1.normal, f2.normal),
-                _ => (false, Vec3::ZERO, Vec3::ZERO),
-            };
-            edges.extend(e.a.to_array().map(f32::to_bits));
+        for (i, (e, sh)) in self.edges.iter().zip(&self.shapes).enumerate() {
+            edges.extend(sh.a.to_array().map(f32::to_bits));
             edges.push(e.object);
-            edges.extend(e.b.to_array().map(f32::to_bits));
-            let light_side = self.leaves_emission(i, 0);
-            edges.push(u32::from(two) | (u32::from(e.is_crease()) << 1) | (u32::from(light_side) << 2));
-            edges.extend(n1.to_array().map(f32::to_bits));
-            edges.push(e.strength().to_bits());
-            edges.extend(n2.to_array().map(f32::to_bits));
+            edges.extend(sh.b.to_array().map(f32::to_bits));
+            let light_side = self.leaves_emission(i, true);
+            edges.push(u32::from(sh.two_faces) | (u32::from(sh.crease) << 1) | (u32::from(light_side) << 2));
+            edges.extend(sh.n1.to_array().map(f32::to_bits));
+            edges.push(sh.strength.to_bits());
+            edges.extend(sh.n2.to_array().map(f32::to_bits));
             edges.extend([e.ends[0], e.ends[1], 0, 0, 0]);
         }
         let (mut nodes, mut order) = (vec![], vec![]);
         let moving_root = self.moving_tree.append_gpu_words(&mut nodes, &mut order);
         let static_root = self.static_tree.append_gpu_words(&mut nodes, &mut order);
-        SecondaryWords { edges, nodes, order, moving_root, static_root, moving: self.moving as u32 }
+        let moving = self.moving as u32;
+        SecondaryWords { edges, nodes, order, moving_root, static_root, moving, moving_emits: self.moving_emits }
     }
 }
 
 /// Words per edge in `SecondaryEdges::gpu_words`: a, object, b, flags (1 two faces, 2 crease, 4 seen from
-/// camera-visible vertices, the emitted part of its jump is the light-side estimator's), the first face's
+/// vertices light_side_vertex accepts, the emitted part of its jump is the light-side estimator's), the first face's
 /// normal, strength, the second face's normal, the ends' welded ids, unused.
 pub const MESH_EDGE_WORDS: usize = 20;
 
@@ -114,6 +122,13 @@ pub struct SecondaryWords {
     pub moving_root: u32,
     pub static_root: u32,
     pub moving: u32,
+    pub moving_emits: bool,
+}
+
+/// Whether the light-side estimator (boundary/shadow.rs) samples the direct shadows of moving edges seen at
+/// vertex `k` of a camera path: the camera's own hits and the vertices after them.
+pub fn light_side_vertex(k: usize) -> bool {
+    k <= 1
 }
 
 /// One recorded camera path and what the boundary sampler needs with it.
@@ -188,10 +203,11 @@ pub fn secondary_boundary(
         // The exact weight of an edge: its approximate arc length on the sphere around p times its strength,
         // zero unless it can be a silhouette or a crease seen from p above its tangent plane.
         let weight = |i: usize| {
-            let e = &edges.edges[i];
+            let e = &edges.shapes[i];
             let above = sp.ng.dot(e.a - sp.p) > 0.0 || sp.ng.dot(e.b - sp.p) > 0.0;
-            let creased = e.is_crease() && e.faces.iter().all(|f| f.normal.dot(sp.p - e.a) > 0.0);
-            if !(above && (e.is_silhouette_from(sp.p) || creased)) {
+            let creased = e.crease && e.n1.dot(sp.p - e.a) > 0.0 && e.n2.dot(sp.p - e.a) > 0.0;
+            let silhouette = e.is_silhouette_from(sp.p);
+            if !(above && (silhouette || creased)) {
                 return 0.0;
             }
             let mid = 0.5 * (e.a + e.b) - sp.p;
@@ -200,7 +216,7 @@ pub fn secondary_boundary(
             let ab = e.b - e.a;
             // A silhouette hides what is behind it; a crease only changes the shading, in proportion to how
             // much its faces' normals differ.
-            let strength = if e.is_silhouette_from(sp.p) { 1.0 } else { e.strength() };
+            let strength = if silhouette { 1.0 } else { e.strength };
             let w = (ab - om * om.dot(ab)).length() / r * strength;
             if w.is_finite() {
                 w
@@ -208,8 +224,12 @@ pub fn secondary_boundary(
                 0.0
             }
         };
+        // Where the side paths end at their first hits (only emission left) and the light-side estimator owns
+        // what moving edges change there, only static edges are left to sample (when x moves).
+        let light_side = light_side_vertex(k);
+        let moving_left = light_side && sub_fp.max_depth <= 1 && !edges.moving_emits();
         // The trees to draw from, by their importance from p.
-        let wm = edges.moving_tree.root_importance(sp.p, sp.ng);
+        let wm = if moving_left { 0.0 } else { edges.moving_tree.root_importance(sp.p, sp.ng) };
         let ws = if x_moves { edges.static_tree.root_importance(sp.p, sp.ng) } else { 0.0 };
         // (NaN importances, from degenerate edges, count as nothing to draw.)
         if (wm + ws).is_nan() || wm + ws <= 0.0 {
@@ -253,7 +273,7 @@ pub fn secondary_boundary(
             if trace_occluded(&d.nodes, &d.triangles, o, om, (q - o).length() * (1.0 - HIDDEN_MARGIN)) {
                 continue;
             }
-            let leave_emission = edges.leaves_emission(edge, k);
+            let leave_emission = edges.leaves_emission(edge, light_side);
             let side = |sign: f32| {
                 let w = (om + n_hat * (sign * SIDE_EPS)).normalize();
                 let f = bsdf_eval(&sp.bsdf, wi, sp.to_local(w));

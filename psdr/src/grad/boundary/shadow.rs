@@ -1,32 +1,39 @@
 //! The direct-shadow part of the secondary boundary, sampled from the light: where a moving object's silhouette
-//! crosses a light as seen from a camera-visible point x, the light's radiance jumps. The path-vertex estimator
+//! crosses a light as seen from a path vertex x, the light's radiance jumps. The path-vertex estimator
 //! (boundary/secondary.rs) draws these shadow edges from x by geometry alone and finds them rarely: on the
 //! furnished room, the 0.3 % of its samples whose side ray reached the light held 97 % of its variance. Here
-//! the three-dimensional integral (the image plane and the edge) is sampled the other way round: a point q on a
-//! moving edge (by length times the share of directions from which the edge is a silhouette), a point y on a
-//! light (as next-event estimation picks it), and x, the first surface the line from y through q reaches
-//! beyond q, must be seen by the camera. Almost every such sample lands on a shadow boundary.
-//! The estimator owns exactly this part: camera-visible vertices (k = 0; on moving objects too, sliding along
-//! the camera ray), edges of moving objects that do not emit, and the jump of the radiance *emitted* at the
-//! first surface each side ray reaches; `secondary_boundary` leaves that part out there
-//! (`SecondaryEdges::leaves_emission`) and keeps everything else.
+//! the integral is sampled the other way round: a point q on a moving edge (by length times the share of
+//! directions from which the edge is a silhouette), a point y on a light (as next-event estimation picks it),
+//! and x, the first surface the line from y through q reaches beyond q. Almost every such sample lands on a
+//! shadow boundary. Each sample serves two vertices of camera paths:
+//! - k = 0, x seen by the camera (on a moving object too, sliding along the camera ray);
+//! - k = 1, x seen from x0, the first surface a cosine-distributed direction from x reaches, seen by the camera
+//!   (x0 slides along the camera ray, x along the ray from x0, as the interior term's ray form moves them).
+//!
+//! The estimator owns exactly this part: vertices k ≤ 1 (`secondary::light_side_vertex`), edges of moving
+//! objects that do not emit, and the jump of the radiance *emitted* at the first surface each side ray reaches;
+//! `secondary_boundary` leaves that part out there (`SecondaryEdges::leaves_emission`) and keeps the rest.
 //!     ∫_image ∫_edge a(p) [h⁻ − h⁺] (dω_q/dθ · n̂) |dω_q/dt| dt dA_image,   h = f cos L_e(first hit),
 //! with dA_image = K cos θ_xc / (r_c² cos³ θ_c) dA_x (K the image's pixels per unit solid angle on its axis,
 //! θ_xc between x's normal and the camera ray) and, for fixed q, dA_x = r_qx² cos θ_y / (r_qy² cos θ_xq) dA_y
-//! (θ_xq between x's normal and the line through q): each sample weighs
+//! (θ_xq between x's normal and the line through q): each k = 0 sample weighs
 //!     a(p) [h⁻ − h⁺] |dω_q/dt| (dω_q/dθ · n̂) K cos θ_xc r_qx² cos θ_y / (r_c² cos³ θ_c r_qy² cos θ_xq)
-//! over p_edge p_y.
+//! over p_edge p_y. For k = 1 the camera's view of x is replaced by the view of x0 and the path's bounce there:
+//! ∫ a(p) f(x0) cos_s dω0 dA_image with dω0 = |n_x·ω| / r² dA_x and the density of x0 given x,
+//! p_ω |n_x0·ω| / r², so the factor a(p) K cos θ_x0c / (r_c² cos³ θ_c) becomes that of x0 times
+//! f(x0) cos_s |n_x·ω| / (p_ω |n_x0·ω|), with p_ω = |n_x·ω| / π: π f(x0) cos_s / |n_x0·ω|.
 
 use crate::grad::accumulate_blocks;
 use crate::grad::boundary::mesh_edges::{mesh_edges, MeshEdge};
 use crate::grad::boundary::primary::project;
 use crate::grad::path::velocity::PoseLayout;
 use crate::render::bsdf::bsdf_eval;
+use crate::render::bsdf::sample_cosine_hemisphere;
 use crate::render::bvh::trace_closest;
 use crate::render::layout::FrameParams;
 use crate::render::light::{emitted_radiance, sample_light};
 use crate::render::sampler::Sampler;
-use crate::render::shading::{offset_origin, surface_point};
+use crate::render::shading::{offset_origin, orthogonal, surface_point};
 use crate::render::SceneData;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -187,84 +194,138 @@ fn shadow_sample(
     }
     let x_object = d.triangles[hit.triangle as usize].object;
     let x = origin + ray * hit.t;
-    // x seen by the camera, at pixel p.
-    let cam = &d.camera;
-    let eye = Vec3::from(cam.origin);
-    let Some([px, py]) = project(cam, x) else { return };
-    if !(px >= 0.0 && py >= 0.0 && px < cam.width as f32 && py < cam.height as f32) {
-        return;
-    }
-    let to_x = x - eye;
-    let r_c = to_x.length();
-    let dir_c = to_x / r_c;
-    // The camera's first hit must be x's own triangle (a distance margin would let the camera see floor points
-    // just behind an object's foot, where contact shadows are strongest).
-    match trace_closest(&d.nodes, &d.triangles, eye, dir_c, f32::INFINITY) {
-        Some(seen) if seen.triangle == hit.triangle => {}
-        _ => return,
-    }
-    let pixel = (py as u32 * cam.width + px as u32) as usize * 3;
-    let a = Vec3::from_slice(&adjoint[pixel..pixel + 3]);
-    if a == Vec3::ZERO {
-        return;
-    }
-    // At x, as secondary_boundary does: the edge point's direction, its arc, the emitted radiance on both sides.
-    let sp = surface_point(d, hit.triangle, hit.u, hit.v, dir_c);
-    let wi = sp.to_local(-dir_c);
-    let to = q - sp.p;
+    // The edge point's direction from x, its arc, and the radiance emitted toward x on both sides of it (the
+    // same for every way x is seen; only the BSDF at x depends on that).
+    let to = q - x;
     let r = to.length();
     let om = to / r;
     let ab = e.b - e.a;
     let tau = (ab - om * om.dot(ab)) / r;
     let n_hat = om.cross(tau).normalize_or_zero();
-    if n_hat == Vec3::ZERO {
+    if n_hat == Vec3::ZERO || !r.is_finite() {
         return;
     }
-    let side = |sign: f32| {
+    let lit = surface_point(d, hit.triangle, hit.u, hit.v, ray); // normals facing the light's side
+    let sides = [-1.0f32, 1.0].map(|sign| {
         let w = (om + n_hat * (sign * SIDE_EPS)).normalize();
-        let f = bsdf_eval(&sp.bsdf, wi, sp.to_local(w));
-        if f == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        let o = offset_origin(sp.p, sp.ng, w);
-        match trace_closest(&d.nodes, &d.triangles, o, w, f32::INFINITY) {
-            Some(h) => f * emitted_radiance(d, h.triangle, Vec3::from(d.shading[h.triangle as usize].ng).dot(-w) > 0.0),
+        let o = offset_origin(lit.p, lit.ng, w);
+        let le = match trace_closest(&d.nodes, &d.triangles, o, w, f32::INFINITY) {
+            Some(h) => emitted_radiance(d, h.triangle, Vec3::from(d.shading[h.triangle as usize].ng).dot(-w) > 0.0),
             None => Vec3::ZERO,
+        };
+        (w, le)
+    });
+    if sides[0].1 == sides[1].1 {
+        return; // no jump, whatever the BSDF
+    }
+    // x seen along `dir` (toward x): the jump of f cos L_e across the edge.
+    let jump = |dir: Vec3| {
+        let sp = surface_point(d, hit.triangle, hit.u, hit.v, dir);
+        let wi = sp.to_local(-dir);
+        let [(w0, l0), (w1, l1)] = sides;
+        bsdf_eval(&sp.bsdf, wi, sp.to_local(w0)) * l0 - bsdf_eval(&sp.bsdf, wi, sp.to_local(w1)) * l1
+    };
+    // The edge and light samples' part of the change of variables (dA_x over dA_y, their densities).
+    let cos_xq = lit.ng.dot(om).abs();
+    let per_x =
+        tau.length() * r * r * cos_y.abs() / (cos_xq * r_qy * r_qy * p_edge as f32 * light.pdf_area * count as f32);
+    // Adds a sample's `scale` times the edge point's velocity relative to x's (both along n̂ over r) for every
+    // entry that moves the edge point (a material point), the triangles `under` (object, corners) or x.
+    let mut add = |scale: f32, x_velocity: &dyn Fn(usize) -> Vec3, under: &[(u32, [u32; 3])]| {
+        if !scale.is_finite() || scale == 0.0 {
+            return;
+        }
+        let site = [(e.ends[0], 1.0 - t), (e.ends[1], t)];
+        moving.clear();
+        pose.entries_moving(e.object, &e.ends, moving);
+        for (object, corners) in under {
+            pose.entries_moving(*object, corners, moving);
+        }
+        for &m in moving.iter() {
+            let (o, comp, at) = pose.entries[m];
+            let edge_velocity = if o == e.object { pose.velocity(o, comp, q, &site) } else { Vec3::ZERO };
+            let rel = edge_velocity - x_velocity(m);
+            let v_dir = (rel - om * om.dot(rel)) / r;
+            g[at] += (scale * v_dir.dot(n_hat)) as f64;
         }
     };
-    let jump = side(-1.0) - side(1.0);
-    if jump == Vec3::ZERO {
-        return;
+    // The velocity u of the material point at `p` on triangle `ti` under entry m.
+    let material_velocity = |m: usize, ti: u32, p: Vec3, u: f32, v: f32| {
+        let (o, comp, _) = pose.entries[m];
+        if o != d.triangles[ti as usize].object {
+            return Vec3::ZERO;
+        }
+        let c = pose.corners(d, ti);
+        pose.velocity(o, comp, p, &[(c[0], 1.0 - u - v), (c[1], u), (c[2], v)])
+    };
+    // A vertex on the ray (origin moving at v_o, direction held fixed) slides to stay on its surface (normal n,
+    // material velocity u): v_o + dir (n·(u − v_o)) / (n·dir), as the interior term's ray form moves it.
+    let slide = |v_o: Vec3, dir: Vec3, n: Vec3, u: Vec3| v_o + dir * (n.dot(u - v_o) / n.dot(dir));
+    let x_under = (x_object, pose.corners(d, hit.triangle));
+    // Seen by the camera (k = 0): a(p) times the image area per unit area at x; x slides along the camera ray.
+    if let Some(c) = camera_view(d, adjoint, x, hit.triangle) {
+        let scale = c.adjoint.dot(jump(c.dir)) * c.image_per_area * per_x;
+        let x_velocity = |m| slide(Vec3::ZERO, c.dir, lit.ng, material_velocity(m, hit.triangle, x, hit.u, hit.v));
+        add(scale, &x_velocity, &[x_under]);
     }
-    // Pixels per unit solid angle on the axis, and the cosines and distances of the change of variables.
-    let k = (cam.width as f32 / (2.0 * cam.tan_half_fov * cam.aspect)) * (cam.height as f32 / (2.0 * cam.tan_half_fov));
-    let cos_c = dir_c.dot(Vec3::from(cam.forward));
-    let (cos_xc, cos_xy) = (sp.ng.dot(dir_c).abs(), sp.ng.dot(om).abs());
-    let jacobian = k * cos_xc * r * r * cos_y.abs() / (r_c * r_c * cos_c * cos_c * cos_c * r_qy * r_qy * cos_xy);
-    let scale = a.dot(jump) * tau.length() * jacobian / (p_edge as f32 * light.pdf_area * count as f32);
-    if !scale.is_finite() {
-        return;
-    }
-    // Entries that move the edge point (a material point) or x (on a moving object, it slides along the
-    // camera ray: dx/dθ = d_c (n·u(x)) / (n·d_c), u the velocity of the material point under x).
-    let site = [(e.ends[0], 1.0 - t), (e.ends[1], t)];
-    let corners = pose.corners(d, hit.triangle);
-    let x_site = [(corners[0], 1.0 - hit.u - hit.v), (corners[1], hit.u), (corners[2], hit.v)];
-    moving.clear();
-    pose.entries_moving(e.object, &e.ends, moving);
-    pose.entries_moving(x_object, &corners, moving);
-    for &m in moving.iter() {
-        let (o, comp, at) = pose.entries[m];
-        let edge_velocity = if o == e.object { pose.velocity(o, comp, q, &site) } else { Vec3::ZERO };
-        let x_velocity = if o == x_object {
-            dir_c * (sp.ng.dot(pose.velocity(o, comp, sp.p, &x_site)) / sp.ng.dot(dir_c))
-        } else {
-            Vec3::ZERO
+    // Seen after one bounce (k = 1): x0 drawn from x by a cosine direction; the image area per unit area at x0,
+    // times f(x0) |n_x·ω| / (p_ω |n_x0·ω|) = π f(x0) / |n_x0·ω|. x0 slides along the camera ray, x along the
+    // ray from x0.
+    if fp.max_depth >= 3 {
+        let n = lit.ng;
+        let (t1, local) = (orthogonal(n), sample_cosine_hemisphere(s.get(5), s.get(6)));
+        let om0 = (t1 * local.x + n.cross(t1) * local.y + n * local.z).normalize();
+        let o0 = offset_origin(x, n, om0);
+        let Some(h0) = trace_closest(&d.nodes, &d.triangles, o0, om0, f32::INFINITY) else { return };
+        let x0 = o0 + om0 * h0.t;
+        let Some(c) = camera_view(d, adjoint, x0, h0.triangle) else { return };
+        let sp0 = surface_point(d, h0.triangle, h0.u, h0.v, c.dir);
+        let f0 = bsdf_eval(&sp0.bsdf, sp0.to_local(-c.dir), sp0.to_local(-om0));
+        let weight = c.adjoint * f0 * (std::f32::consts::PI / sp0.ng.dot(om0).abs());
+        let scale = weight.dot(jump(-om0)) * c.image_per_area * per_x;
+        let x_velocity = |m| {
+            let v0 = slide(Vec3::ZERO, c.dir, sp0.ng, material_velocity(m, h0.triangle, x0, h0.u, h0.v));
+            slide(v0, -om0, lit.ng, material_velocity(m, hit.triangle, x, hit.u, hit.v))
         };
-        let rel = edge_velocity - x_velocity;
-        let v_dir = (rel - om * om.dot(rel)) / r;
-        g[at] += (scale * v_dir.dot(n_hat)) as f64;
+        let x0_under = (d.triangles[h0.triangle as usize].object, pose.corners(d, h0.triangle));
+        add(scale, &x_velocity, &[x_under, x0_under]);
     }
+}
+
+/// How the camera sees a point: the direction from the eye, the pixel's adjoint, and the image's area per
+/// unit surface area there (K cos θ_xc / (r_c² cos³ θ_c), K the pixels per unit solid angle on the axis).
+struct CameraView {
+    dir: Vec3,
+    adjoint: Vec3,
+    image_per_area: f32,
+}
+
+/// The camera's view of point `x` on triangle `triangle`: None unless x projects into the image and the
+/// camera's first hit toward it is that triangle (a distance margin would let the camera see floor points just
+/// behind an object's foot, where contact shadows are strongest), or the pixel's adjoint is zero.
+fn camera_view(d: &SceneData, adjoint: &[f32], x: Vec3, triangle: u32) -> Option<CameraView> {
+    let cam = &d.camera;
+    let eye = Vec3::from(cam.origin);
+    let [px, py] = project(cam, x)?;
+    if !(px >= 0.0 && py >= 0.0 && px < cam.width as f32 && py < cam.height as f32) {
+        return None;
+    }
+    let to_x = x - eye;
+    let r_c = to_x.length();
+    let dir = to_x / r_c;
+    if trace_closest(&d.nodes, &d.triangles, eye, dir, f32::INFINITY)?.triangle != triangle {
+        return None;
+    }
+    let pixel = (py as u32 * cam.width + px as u32) as usize * 3;
+    let adjoint = Vec3::from_slice(&adjoint[pixel..pixel + 3]);
+    if adjoint == Vec3::ZERO {
+        return None;
+    }
+    let k = (cam.width as f32 / (2.0 * cam.tan_half_fov * cam.aspect)) * (cam.height as f32 / (2.0 * cam.tan_half_fov));
+    let cos_c = dir.dot(Vec3::from(cam.forward));
+    let ng = Vec3::from(d.shading[triangle as usize].ng);
+    let image_per_area = k * ng.dot(dir).abs() / (r_c * r_c * cos_c * cos_c * cos_c);
+    Some(CameraView { dir, adjoint, image_per_area })
 }
 
 #[cfg(test)]
