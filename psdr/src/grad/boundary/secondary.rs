@@ -13,8 +13,10 @@
 //! whose flat faces make every edge a crease), a point uniformly along it, and estimate L_in on both sides with
 //! two paths sharing their random numbers.
 //! Every vertex that scatters gets these samples, so shadows (direct) and occluders seen after bounces
-//! (indirect) are both covered, to the path's full depth. Vertices on turning surfaces with shading normals
-//! also get samples of their moving horizon (`horizon_boundary`).
+//! (indirect) are both covered, to the path's full depth, except one part sampled from the lights instead
+//! (boundary/shadow.rs): at the first two vertices, the radiance emitted at the side paths' first hits across
+//! edges of moving, non-emitting objects (`light_side_vertex`, `SecondaryEdges::leaves_emission`). Vertices
+//! on turning surfaces with shading normals also get samples of their moving horizon (`horizon_boundary`).
 
 use crate::grad::boundary::edge_tree::EdgeTree;
 use crate::grad::boundary::horizon::{face_normal_velocity, has_horizon_jump, horizon_boundary, HorizonVertex};
