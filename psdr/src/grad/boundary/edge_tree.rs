@@ -254,21 +254,16 @@ fn min_dot(a: Vec3, lo: Vec3, hi: Vec3) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grad::boundary::mesh_edges::mesh_edges;
+    use crate::grad::boundary::mesh_edges::{example_room_with_ball, mesh_edges};
     use crate::render::sampler::Sampler;
-    use crate::scene::{load_scene, sphere_mesh, Object, Pose};
+    use crate::scene::load_scene;
 
     /// Every edge the exact tests keep (an endpoint above the plane; a silhouette, or a crease whose faces both
     /// face x) is visited, for random points and planes around the example room with a finely tessellated
     /// sphere added (smooth, so most edges are culled), and culling actually removes most edges.
     #[test]
     fn visits_every_edge_the_exact_test_keeps() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/room/scene.json");
-        let mut scene = load_scene(std::path::Path::new(path)).unwrap();
-        let pose = Pose { translation: Vec3::new(0.3, 1.0, -0.5), ..Pose::default() };
-        let mut ball = sphere_mesh(0.3, 24, 48, false);
-        ball.material = 0;
-        scene.objects.push(Object { name: "ball".into(), parts: vec![ball], pose, emitter: None });
+        let scene = example_room_with_ball(24, 48, false);
         let edges = mesh_edges(&scene, |_| true);
         let tree = EdgeTree::build(&edges, 0);
         let (mut stack, mut visited_total, mut kept_total) = (vec![], 0usize, 0usize);
