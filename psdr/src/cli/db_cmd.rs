@@ -1,6 +1,6 @@
-//! `psdr db build | list | show`: the furniture model database the object stage retrieves from.
+//! `psdr db build | list | check | show`: the furniture model database the object stage retrieves from.
 
-use crate::db::{build_db, ModelSet, SWEET_HOME_3D_FURNITURE};
+use crate::db::{build_db, check_models, ModelSet, SWEET_HOME_3D_FURNITURE};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
@@ -35,6 +35,12 @@ enum DbCommand {
         /// Only models of this psdr class.
         #[arg(long)]
         class: Option<String>,
+    },
+    /// Load, save and reload every model of a database as a run's stages do (scaled to metres, a material per
+    /// part, written as a stage's scene and read back) and report each model that does not come back the same.
+    Check {
+        /// The database folder (default ~/.cache/psdr/db).
+        dir: Option<PathBuf>,
     },
     /// Everything known about one model (by name, or part of its file path).
     Show {
@@ -84,6 +90,32 @@ pub fn run(args: DbArgs) -> anyhow::Result<()> {
                     "{:<32} {:<10} {:>5.2} x {:>5.2} x {:>5.2} m {:>7} tris  {}",
                     m.name, m.category, s.x, s.y, s.z, m.triangles, m.licence
                 );
+            }
+        }
+        DbCommand::Check { dir } => {
+            let dir = dir.unwrap_or_else(default_dir);
+            let set = ModelSet::from_folder(&dir)?;
+            let scratch = std::env::temp_dir().join(format!("psdr-db-check-{}", std::process::id()));
+            let bar = indicatif::ProgressBar::new(set.models.len() as u64);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template("checking models {bar:40} {pos}/{len} ({eta} left)")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            let failures = check_models(&set, &scratch, &|done, _| bar.set_position(done as u64))?;
+            bar.finish_and_clear();
+            for (path, why) in &set.skipped {
+                println!("FAIL {}: catalog: {why}", path.display());
+            }
+            for f in &failures {
+                println!("FAIL {} ({}): {}", f.model, f.path, f.reason);
+            }
+            let failed = failures.len() + set.skipped.len();
+            println!("{} models checked, {failed} failed ({})", set.models.len() + set.skipped.len(), dir.display());
+            if failed == 0 {
+                let _ = std::fs::remove_dir_all(&scratch);
+            } else {
+                println!("the failed models' files are kept in {}", scratch.display());
+                anyhow::bail!("{failed} models do not survive a save and reload");
             }
         }
         DbCommand::Show { name, dir } => {

@@ -2,15 +2,17 @@
 //! the object stage retrieves candidates. `model_set`: the models of a folder (with or without a
 //! `catalog.json`); `sh3f`: Sweet Home 3D libraries; `build`: `psdr db build`, indexing libraries, 3D-FUTURE
 //! and OBJ folders into one catalog; `silhouette`: outline descriptors that rank a class's models by shape;
-//! `thumbnail`: a render of each model.
+//! `thumbnail`: a render of each model; `check`: `psdr db check`, every model through a save and reload.
 
 mod build;
+mod check;
 mod model_set;
 mod sh3f;
 mod silhouette;
 mod thumbnail;
 
 pub use build::{build_db, BuildReport, CATALOG_VERSION, SWEET_HOME_3D_FURNITURE};
+pub use check::{check_model, check_models, CheckFailure};
 pub use model_set::{entry_for, ModelEntry, ModelSet};
 pub use sh3f::{class_of, extract_sh3f, read_sh3f, Sh3fLibrary, Sh3fModel};
 pub use silhouette::{best_view_iou, model_silhouettes, Silhouette};

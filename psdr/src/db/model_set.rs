@@ -6,7 +6,7 @@
 
 use super::silhouette::{model_silhouettes, Silhouette};
 use crate::error::{Error, Result};
-use crate::scene::{load_obj, MeshPart};
+use crate::scene::{drop_unseen_triangles, load_obj, MeshPart};
 use crate::vision::canonical_class;
 use glam::{Mat3, Vec3};
 use std::path::{Path, PathBuf};
@@ -65,6 +65,11 @@ impl ModelEntry {
                     *n = (r * inv).normalize_or_zero();
                 }
             }
+        }
+        // Scaled to metres, a sliver may round flat or onto another triangle.
+        drop_unseen_triangles(&mut parts);
+        if parts.is_empty() {
+            return Err(Error::io(&self.path, "no triangle left with an area after scaling to metres"));
         }
         Ok(parts)
     }

@@ -3,31 +3,37 @@
 
 mod auto_smooth;
 mod camera;
+mod compare;
 pub mod file;
 mod load;
 mod material;
 mod mesh;
 mod obj;
+mod obj_write;
 mod param_path;
 mod pose;
 mod primitives;
 mod procedural;
 mod save;
 mod texture;
+mod unseen_triangles;
 pub mod validate;
 mod weld;
 
 pub use auto_smooth::auto_smooth;
 pub use camera::Camera;
+pub use compare::{same_parts, same_scene, same_triangles};
 pub use load::load_scene;
 pub use material::{Color, Material, Scalar, UvTransform};
 pub use mesh::{Emitter, MeshPart, Object};
 pub use obj::{load_obj, MtlMaterial, ObjMesh};
+pub use obj_write::{obj_text, written_names, ObjText};
 pub use param_path::{ParamPath, TextureSlot};
 pub use pose::Pose;
 pub use primitives::{box_mesh, rectangle_mesh, sphere_mesh};
 pub use procedural::Procedural;
 pub use save::save_scene;
+pub use unseen_triangles::{drop_unseen_triangles, UnseenTriangles};
 pub use weld::{weld, Welding};
 
 pub use texture::{linear_to_srgb as texture_linear_to_srgb, srgb_to_linear, Texture, TextureEncoding};

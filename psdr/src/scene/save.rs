@@ -1,15 +1,16 @@
 //! `Scene` -> scene file: what every pipeline stage writes (`stages/NN_name/scene.json`), readable by
-//! `psdr render` and `load_scene`. Self-contained: each object's mesh goes to `meshes/` as OBJ (object space,
-//! its pose in the transform) and each texture to `textures/` as linear EXR, so a stage's output never
+//! `psdr render` and `load_scene`. Self-contained: each object's mesh goes to `meshes/` as OBJ + MTL (object
+//! space, its pose in the transform; `obj_write`) and each texture to `textures/` as linear EXR, so a stage's output never
 //! depends on where its inputs came from. Numbers are written in Rust's shortest round-trip form, so loading
 //! the file gives back the same floats (normals and quaternions are renormalised on load).
 
 use super::file::*;
-use super::{Color, MeshPart, Scalar, Scene};
+use super::obj_write::obj_text;
+use super::{Color, Scalar, Scene};
 use crate::error::{Error, Result};
 use crate::output::{write_atomically, write_exr_channels};
+use glam::Vec3;
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 use std::path::Path;
 
 /// Writes `scene` to `path` (JSON) with its meshes and textures in `meshes/` and `textures/` beside it.
@@ -54,12 +55,23 @@ pub fn save_scene(scene: &Scene, path: &Path) -> Result<()> {
         .collect::<Result<Vec<_>>>()?;
     let mut shapes = vec![];
     for (i, o) in scene.objects.iter().enumerate() {
-        let rel = format!("meshes/{i:03}_{}.obj", file_safe(&o.name));
-        let names = part_names(&o.parts);
-        let text = obj_text(&o.parts, &names);
-        write_atomically(&dir.join(&rel), |tmp| std::fs::write(tmp, &text).map_err(|e| Error::io(tmp, e)))?;
-        let part_materials: BTreeMap<String, String> =
-            o.parts.iter().zip(&names).map(|(p, n)| (n.clone(), scene.materials[p.material].name.clone())).collect();
+        let stem = format!("meshes/{i:03}_{}", file_safe(&o.name));
+        let (rel, mtl_rel) = (format!("{stem}.obj"), format!("{stem}.mtl"));
+        let mtl_name = Path::new(&mtl_rel).file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
+        let diffuse = |k: usize| match scene.materials[o.parts[k].material].albedo {
+            Color::Constant(c) => c,
+            Color::Texture(_) => Vec3::splat(0.8),
+        };
+        let text = obj_text(&o.parts, &mtl_name, &diffuse);
+        write_atomically(&dir.join(&mtl_rel), |tmp| std::fs::write(tmp, &text.mtl).map_err(|e| Error::io(tmp, e)))?;
+        write_atomically(&dir.join(&rel), |tmp| std::fs::write(tmp, &text.obj).map_err(|e| Error::io(tmp, e)))?;
+        let part_materials: BTreeMap<String, String> = o
+            .parts
+            .iter()
+            .zip(&text.names)
+            .filter(|(p, _)| !p.indices.is_empty())
+            .map(|(p, n)| (n.clone(), scene.materials[p.material].name.clone()))
+            .collect();
         shapes.push(ShapeFile {
             name: o.name.clone(),
             kind: "obj".into(),
@@ -133,50 +145,6 @@ fn procedural_file(p: &super::Procedural) -> Result<ProceduralFile> {
         })
         .collect();
     Ok(ProceduralFile { graph: p.graph.clone(), params, size: Some(p.size), tint: Some(p.tint.to_array()) })
-}
-
-/// Part names as OBJ group names: the part's own when it is one token, else `partN` (the scene maps parts to
-/// materials by these names, so they must survive the OBJ reader).
-fn part_names(parts: &[MeshPart]) -> Vec<String> {
-    let mut names: Vec<String> = vec![];
-    for (k, p) in parts.iter().enumerate() {
-        let ok = !p.name.is_empty() && p.name.chars().all(|c| c.is_ascii_graphic()) && !names.contains(&p.name);
-        names.push(if ok { p.name.clone() } else { format!("part{k}") });
-    }
-    names
-}
-
-/// One `o` group per part; every vertex keeps its own index for position, uv and normal.
-fn obj_text(parts: &[MeshPart], names: &[String]) -> String {
-    let mut s = String::from("# written by psdr\n");
-    let mut base = 1usize;
-    for (p, name) in parts.iter().zip(names) {
-        let _ = writeln!(s, "o {name}");
-        for v in &p.positions {
-            let _ = writeln!(s, "v {} {} {}", v.x, v.y, v.z);
-        }
-        for t in p.uvs.iter().flatten() {
-            let _ = writeln!(s, "vt {} {}", t.x, t.y);
-        }
-        for n in p.normals.iter().flatten() {
-            let _ = writeln!(s, "vn {} {} {}", n.x, n.y, n.z);
-        }
-        for tri in &p.indices {
-            s.push('f');
-            for &i in tri {
-                let i = i as usize + base;
-                let _ = match (p.uvs.is_some(), p.normals.is_some()) {
-                    (false, false) => write!(s, " {i}"),
-                    (true, false) => write!(s, " {i}/{i}"),
-                    (false, true) => write!(s, " {i}//{i}"),
-                    (true, true) => write!(s, " {i}/{i}/{i}"),
-                };
-            }
-            s.push('\n');
-        }
-        base += p.positions.len();
-    }
-    s
 }
 
 /// A file-name-safe form of an object name.

@@ -145,14 +145,22 @@ impl RunContext {
         load_scene(&dir.join("scene.json"))
     }
 
-    /// Finishes the current stage: writes its scene, a preview render and its record; returns the scene as
-    /// read back from disk, so a run resumed after this stage continues from exactly the same state.
+    /// Finishes the current stage: writes its scene, reads it back and checks it is the same (`same_scene`),
+    /// then a preview render and its record; returns the scene as read back from disk, so a run resumed after
+    /// this stage continues from exactly the same state.
     pub fn end_stage(&mut self, scene: &Scene) -> Result<Scene> {
         let Some(mut stage) = self.current.take() else {
             return Err(Error::Invalid("end of a stage that was not started".into()));
         };
         let path = stage.dir.join("scene.json");
         save_scene(scene, &path)?;
+        // A stage is finished only once its file reads back as the scene it holds: the next stage and any
+        // resumed run start from the file, so a file psdr cannot read (or reads differently) stops the run here,
+        // naming the stage, before the marker makes it "finished".
+        let back = load_scene(&path)?;
+        crate::scene::same_scene(scene, &back).map_err(|e| {
+            Error::io(&path, format!("stage '{}': the scene does not read back as written: {e}", stage.name))
+        })?;
         let preview = stage.dir.join("final.png");
         self.preview(scene, &preview)?;
         stage.report.images.push(ReportImage { label: "final".into(), path: preview });
@@ -165,7 +173,7 @@ impl RunContext {
             eprintln!("stage {:02} {}: done in {:.1} s", stage.index, stage.name, stage.report.seconds);
         }
         self.report.stages.push(stage.report);
-        load_scene(&path)
+        Ok(back)
     }
 
     /// Records a failed stage in the report (the run is ending with an error).
