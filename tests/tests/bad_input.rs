@@ -65,7 +65,7 @@ fn a_file_that_is_not_an_obj_or_an_image_is_an_error() {
         "empty.json",
         &scene_json(MAT, r#"{ "name": "e", "type": "obj", "file": "empty.obj", "material": "m" }"#),
     );
-    assert!(e.contains("shapes[0] ('e').file") && e.contains("no triangles"), "{e}");
+    assert!(e.contains("shapes[0] ('e').file") && e.contains("no triangle"), "{e}");
     // A loss target that is not an EXR (a PNG, say) is named as such.
     let png = write_file(&dir, "target.png", "\u{89}PNG this is not an exr");
     let e = psdr::output::read_exr_rgb(&png).unwrap_err().to_string();
@@ -163,7 +163,9 @@ fn nan_parameters_set_in_code_are_caught_by_validation() {
 }
 
 /// Degenerate (zero-area) triangles, a zero normal and a degenerate emitter are legal input: the scene loads and
-/// renders without a panic and without a non-finite value, and zero-area emitters take no light samples.
+/// renders without a panic and without a non-finite value, and zero-area emitters take no light samples. The OBJ
+/// reader drops flat triangles (they render nothing), so the renderer's side is checked on a scene that holds
+/// them in memory, and an OBJ of flat triangles only is an error that says so.
 #[test]
 fn degenerate_triangles_render_finite() {
     let dir = temp_dir("bad-degenerate");
@@ -173,11 +175,31 @@ fn degenerate_triangles_render_finite() {
     write_file(&dir, "degenerate.obj", obj);
     let shapes = r#"{ "name": "mesh", "type": "obj", "file": "degenerate.obj", "material": "m" },
         { "name": "lamp", "type": "obj", "file": "degenerate.obj", "material": "m",
-          "transform": { "translation": [0, 0, 1.5], "rotation_deg": [180, 0, 0], "scale": 0.3 }, "emitter": { "radiance": 4 } },
-        { "name": "dead_lamp", "type": "obj", "file": "collinear.obj", "material": "m", "emitter": { "radiance": 9 } }"#;
-    write_file(&dir, "collinear.obj", "v 0 0 1\nv 1 0 1\nv 2 0 1\nf 1 2 3\n");
+          "transform": { "translation": [0, 0, 1.5], "rotation_deg": [180, 0, 0], "scale": 0.3 }, "emitter": { "radiance": 4 } }"#;
     let path = write_file(&dir, "degenerate.json", &scene_json(MAT, shapes));
     let mut scene = load_scene(&path).expect("degenerate triangles are legal");
+    // Only flat triangles: the reader says what it found.
+    write_file(&dir, "collinear.obj", "v 0 0 1\nv 1 0 1\nv 2 0 1\nf 1 2 3\n");
+    let err = psdr::scene::load_obj(&dir.join("collinear.obj")).err().expect("no triangle with an area");
+    assert!(err.to_string().contains("collinear.obj") && err.to_string().contains("no triangle"), "{err}");
+    // In memory the renderer meets them anyway (a mesh made in code, a pose that flattens one).
+    let mut mesh = scene.objects[0].parts[0].clone();
+    mesh.indices = vec![[0, 1, 2]];
+    mesh.positions = vec![Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(2.0, 0.0, 1.0)];
+    mesh.normals = None;
+    scene.objects.push(psdr::scene::Object {
+        name: "dead_lamp".into(),
+        parts: vec![mesh],
+        pose: Default::default(),
+        emitter: Some(psdr::scene::Emitter { radiance: Vec3::splat(9.0), two_sided: false }),
+    });
+    let raw = &mut scene.objects[0].parts[0];
+    raw.positions.push(raw.positions[0]);
+    if let Some(ns) = raw.normals.as_mut() {
+        ns.push(ns[0]);
+    }
+    let n = raw.positions.len() as u32 - 1;
+    raw.indices.push([0, n, 1]);
     scene.settings.spp = 16;
     let d = SceneData::build(&scene).unwrap();
     // Only triangles with positive area carry light (rotating the lamp's collinear triangles by 180 degrees in
@@ -237,4 +259,33 @@ fn cli_grad_with_one_seed_prints_no_nan_and_zero_seeds_is_an_error() {
     let stderr = String::from_utf8_lossy(&zero.stderr);
     assert!(!zero.status.success());
     assert!(stderr.contains("--replicas"), "stderr: {stderr}");
+}
+
+/// A value of the wrong form is named by its field path and the spellings it may take, never by serde's
+/// internal type names ("data did not match any variant of untagged enum ValueFile").
+#[test]
+fn json_of_the_wrong_form_names_the_field_path() {
+    let dir = temp_dir("bad-json-form");
+    let cases = [
+        (r#"{ "name": "m", "albedo": "red" }"#, RECT, "materials[0].albedo", "[r, g, b]"),
+        (r#"{ "name": "m", "albedo": [1, 2] }"#, RECT, "materials[0].albedo", "found [1,2]"),
+        (r#"{ "name": "m", "roughness": { "texture": 3 } }"#, RECT, "materials[0].roughness", "expected a string"),
+        (
+            MAT,
+            r#"{ "name": "w", "type": "rectangle", "size": [2, 2], "material": "m", "transform": { "scale": "big" } }"#,
+            "shapes[0].transform.scale",
+            "a number or a list of numbers",
+        ),
+        (
+            MAT,
+            r#"{ "name": "w", "type": "rectangle", "size": [2, 2], "material": "m", "emitter": { "radiance": true } }"#,
+            "shapes[0].emitter.radiance",
+            "found true",
+        ),
+    ];
+    for (k, (mat, shape, field, says)) in cases.iter().enumerate() {
+        let e = load_err(&dir, &format!("form{k}.json"), &scene_json(mat, shape));
+        assert!(e.contains(field) && e.contains(says), "case {k}: {e}");
+        assert!(!e.contains("untagged") && !e.contains("ValueFile"), "case {k}: serde's internals in {e}");
+    }
 }

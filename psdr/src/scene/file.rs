@@ -48,12 +48,45 @@ pub struct RenderFile {
 }
 
 /// `[r, g, b]`, a single grey value, or `{"texture": "file.png", "srgb": true}`.
-#[derive(Deserialize, Serialize, Debug, Clone)]
+#[derive(Serialize, Debug, Clone)]
 #[serde(untagged)]
 pub enum ValueFile {
     Number(f32),
     Rgb([f32; 3]),
     Texture(TextureRef),
+}
+
+/// Read by hand rather than as serde's untagged enum, whose error ("data did not match any variant of untagged
+/// enum ValueFile") names neither the spellings nor what was found.
+impl<'de> Deserialize<'de> for ValueFile {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let v = serde_json::Value::deserialize(d)?;
+        let number = |x: &serde_json::Value| x.as_f64().map(|f| f as f32);
+        match &v {
+            serde_json::Value::Number(_) => Ok(ValueFile::Number(number(&v).unwrap_or(f32::NAN))),
+            serde_json::Value::Array(a) if a.len() == 3 && a.iter().all(|x| x.is_number()) => {
+                Ok(ValueFile::Rgb([0, 1, 2].map(|k| number(&a[k]).unwrap_or(f32::NAN))))
+            }
+            serde_json::Value::Object(_) => {
+                TextureRef::deserialize(v).map(ValueFile::Texture).map_err(|e| D::Error::custom(e.to_string()))
+            }
+            other => Err(D::Error::custom(format!(
+                "expected a number, an [r, g, b] triple or {{\"texture\": \"file.png\"}}, found {}",
+                short_json(other)
+            ))),
+        }
+    }
+}
+
+/// A JSON value as a short text for a message.
+fn short_json(v: &serde_json::Value) -> String {
+    let s = v.to_string();
+    if s.chars().count() > 40 {
+        format!("{}...", s.chars().take(40).collect::<String>())
+    } else {
+        s
+    }
 }
 
 #[derive(Deserialize, Serialize, Debug, Clone)]
@@ -153,14 +186,16 @@ pub struct EmitterFile {
 
 /// Reads `2` as `[2]` and `[2, 3]` as itself, so "one number or a list" fields accept both spellings.
 fn one_or_many<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Vec<f32>>, D::Error> {
-    #[derive(Deserialize)]
-    #[serde(untagged)]
-    enum OneOrMany {
-        One(f32),
-        Many(Vec<f32>),
+    use serde::de::Error as _;
+    let v = Option::<serde_json::Value>::deserialize(d)?;
+    match v {
+        None | Some(serde_json::Value::Null) => Ok(None),
+        Some(serde_json::Value::Number(n)) => Ok(Some(vec![n.as_f64().unwrap_or(f64::NAN) as f32])),
+        Some(serde_json::Value::Array(a)) if a.iter().all(|x| x.is_number()) => {
+            Ok(Some(a.iter().map(|x| x.as_f64().unwrap_or(f64::NAN) as f32).collect()))
+        }
+        Some(other) => {
+            Err(D::Error::custom(format!("expected a number or a list of numbers, found {}", short_json(&other))))
+        }
     }
-    Ok(Option::<OneOrMany>::deserialize(d)?.map(|n| match n {
-        OneOrMany::One(x) => vec![x],
-        OneOrMany::Many(v) => v,
-    }))
 }

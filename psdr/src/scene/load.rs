@@ -14,13 +14,33 @@ use std::path::{Path, PathBuf};
 
 pub fn load_scene(path: &Path) -> Result<Scene> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let file: SceneFile = serde_json::from_str(&text)
-        .map_err(|e| Error::scene(path, format!("line {} column {}", e.line(), e.column()), e.to_string()))?;
+    let file: SceneFile = parse_scene_file(&text).map_err(|(field, msg)| Error::scene(path, field, msg))?;
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let mut scene = Loader { file: path, base, textures: Vec::new(), texture_ids: HashMap::new() }.scene(&file)?;
     scene.source = Some(path.to_path_buf());
     crate::scene::validate::validate(&scene).map_err(|(field, msg)| Error::scene(path, field, msg))?;
     Ok(scene)
+}
+
+/// The scene file's JSON, or the field (its path in the file, "shapes[2].transform.scale", with the line) and
+/// what is wrong there.
+fn parse_scene_file(text: &str) -> std::result::Result<SceneFile, (String, String)> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let inner = e.inner();
+        let at = format!("line {} column {}", inner.line(), inner.column());
+        let field = e.path().to_string();
+        // serde_json appends " at line L column C"; it leads the field instead.
+        let mut msg = inner.to_string();
+        if let Some(i) = msg.rfind(" at line ") {
+            msg.truncate(i);
+        }
+        if field.is_empty() || field == "." {
+            (at, msg)
+        } else {
+            (format!("{field} ({at})"), msg)
+        }
+    })
 }
 
 struct Loader<'a> {

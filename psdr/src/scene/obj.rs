@@ -72,7 +72,8 @@ pub fn load_obj(path: &Path) -> Result<ObjMesh> {
     let mut keep = kept.parts_kept.iter();
     part_mtl.retain(|_| *keep.next().unwrap_or(&true));
     if parts.is_empty() {
-        return Err(Error::io(path, "OBJ file contains no triangles"));
+        let why = if dropped > 0 { format!(" ({dropped} flat or repeated ones left out)") } else { String::new() };
+        return Err(Error::io(path, format!("OBJ file contains no triangle with an area{why}")));
     }
     Ok(ObjMesh { parts, part_mtl, dropped })
 }

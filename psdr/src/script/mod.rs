@@ -57,6 +57,19 @@ fn dir_of(p: &Path) -> String {
     d.to_string_lossy().into_owned()
 }
 
+/// Makes the output folder, or says why it cannot be used, before any stage runs: an existing file of that
+/// name, a folder that cannot be created or written to.
+pub fn check_output_folder(out: &Path) -> Result<()> {
+    if out.exists() && !out.is_dir() {
+        return Err(Error::io(out, "-o names an existing file; give a folder (it is made if missing)"));
+    }
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, format!("cannot make the output folder: {e}")))?;
+    let probe = out.join(format!(".psdr-write-check-{}", std::process::id()));
+    std::fs::write(&probe, b"").map_err(|e| Error::io(out, format!("cannot write into the output folder: {e}")))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// Runs a stage script on a photo. Inputs are checked before anything is written to the output folder.
 pub fn run_script(run: ScriptRun, backend: Box<dyn Backend>) -> Result<RunSummary> {
     let source = std::fs::read_to_string(&run.script).map_err(|e| Error::io(&run.script, e))?;
@@ -66,7 +79,7 @@ pub fn run_script(run: ScriptRun, backend: Box<dyn Backend>) -> Result<RunSummar
     let probe = rhai::Engine::new();
     let ast = probe.compile(&source).map_err(|e| engine::script_error(&run.script, &e.into()))?;
     let sets = overrides(&ast, &run.sets)?;
-    std::fs::create_dir_all(&run.out).map_err(|e| Error::io(&run.out, e))?;
+    check_output_folder(&run.out)?;
     let report = RunReport {
         title: format!("psdr run {}", run.script.display()),
         script: run.script.display().to_string(),
@@ -79,6 +92,7 @@ pub fn run_script(run: ScriptRun, backend: Box<dyn Backend>) -> Result<RunSummar
         credits: vec![],
         notes: vec![],
     };
+    let _reporter = crate::progress::start_reporter(run.options.quiet);
     let ctx = Rc::new(RefCell::new(RunContext::new(run.out.clone(), run.options.clone(), backend, report)));
     let mut engine = build_engine(&ctx);
     if !sets.is_empty() {
@@ -106,6 +120,14 @@ pub fn run_script(run: ScriptRun, backend: Box<dyn Backend>) -> Result<RunSummar
     let mut scene_path = None;
     let final_scene = value.try_cast::<SceneHandle>().map(|s| s.0);
     if let Some(scene) = &final_scene {
+        crate::progress::set_stage(Some("outputs"));
+        let _writing = crate::progress::activity(
+            format!(
+                "scene.json, scene.glb, the Mitsuba export and render.png at {}x{}",
+                scene.camera.width, scene.camera.height
+            ),
+            None,
+        );
         let path = run.out.join("scene.json");
         crate::scene::save_scene(scene, &path)?;
         // The scene for Blender and the web, and for Mitsuba 3, as well.

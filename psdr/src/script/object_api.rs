@@ -21,6 +21,11 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
     let mut db: Option<PathBuf> = None;
     let (mut encoder, mut embedding_weight): (Option<PathBuf>, f32) = (None, 0.5);
     for (k, v) in opts {
+        if k == "placeholders" {
+            o.placeholders =
+                v.as_bool().map_err(|_| Error::Invalid("objects_init: 'placeholders' must be true or false".into()))?;
+            continue;
+        }
         if k == "db" || k == "embedding" {
             let path = PathBuf::from(
                 v.clone().into_string().map_err(|_| Error::Invalid(format!("objects_init: '{k}' must be a path")))?,
@@ -49,7 +54,7 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
             "wall_tie" => o.wall_tie = num.max(0.0) as f32,
             other => {
                 return Err(Error::Invalid(format!(
-                    "objects_init: unknown option '{other}' (db, min_pixels, erode, yaws, sweep_width, top_k, depth_weight, max_candidates, \
+                    "objects_init: unknown option '{other}' (db, placeholders, min_pixels, erode, yaws, sweep_width, top_k, depth_weight, max_candidates, \
                      scale_weight, finalists, silhouette_weight, embedding, embedding_weight, merge_bridges, \
                      merge_depth_tolerance, wall_tie)"
                 )))
@@ -112,6 +117,74 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
     Ok(out)
 }
 
+/// `check_models(db, obs, #{ placeholders, min_pixels })`, before any stage runs: the model folder exists and
+/// holds models, and has a model of every furniture class the photo shows. A missing class stops the run with
+/// the classes and their instances named, unless `placeholders` is true: then each such instance will be a box
+/// of its observed size, which result.json (`placeholders`) and the report say.
+fn check_models(run: &RunRef, db: &str, obs: &ObsHandle, opts: &Map) -> crate::Result<()> {
+    let mut placeholders = false;
+    let mut min_pixels = crate::stages::ObjectInitOptions::default().min_pixels;
+    for (k, v) in opts {
+        match k.as_str() {
+            "placeholders" => {
+                placeholders = v
+                    .as_bool()
+                    .map_err(|_| Error::Invalid("check_models: 'placeholders' must be true or false".into()))?
+            }
+            "min_pixels" => min_pixels = super::engine::option_number("check_models", k, v)?.max(0.0) as usize,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "check_models: unknown option '{other}' (placeholders, min_pixels)"
+                )))
+            }
+        }
+    }
+    let dir = std::path::Path::new(db);
+    if !dir.is_dir() {
+        return Err(Error::io(dir, "the model database folder does not exist (--db DIR, PSDR_DB, or psdr db build)"));
+    }
+    let models = ModelSet::from_folder(dir)?;
+    if models.models.is_empty() {
+        return Err(Error::io(
+            dir,
+            format!(
+                "the model database holds no models ({} files could not be read); give a folder of OBJ models or a \
+                 `psdr db build` index with --db",
+                models.skipped.len()
+            ),
+        ));
+    }
+    let inst = obs.0.require_instances()?;
+    let missing = crate::stages::missing_classes(inst, &models, min_pixels);
+    if missing.is_empty() {
+        return Ok(());
+    }
+    let list = missing.iter().map(|(c, ids)| format!("{c} (instances {ids:?})")).collect::<Vec<_>>().join(", ");
+    if !placeholders {
+        return Err(Error::io(
+            dir,
+            format!(
+                "the model database has no model of {list}; add models of these classes, label the instances with \
+                 classes it has, or let them be boxes of their size with --set placeholder_boxes=true"
+            ),
+        ));
+    }
+    let mut c = run.borrow_mut();
+    let note = format!("placeholder boxes for classes the database lacks: {list}");
+    if !c.options.quiet {
+        eprintln!("warning: {note}");
+    }
+    c.report.notes.push(note);
+    c.recorded.insert(
+        "placeholders".into(),
+        serde_json::json!(missing
+            .iter()
+            .map(|(c, ids)| serde_json::json!({"class": c, "instances": ids}))
+            .collect::<Vec<_>>()),
+    );
+    Ok(())
+}
+
 fn instance_mask(obs: &ObsHandle, id: i64) -> crate::Result<Tensor> {
     let m = obs.0.require_instances()?;
     let id = u16::try_from(id).map_err(|_| Error::Invalid(format!("instance id {id} is not in 1..65535")))?;
@@ -128,6 +201,10 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
         objects_init(&r, &obs, scene, &opts).map_err(rhai_err)
     });
     engine.register_fn("instance_mask", |obs: &mut ObsHandle, id: i64| instance_mask(obs, id).map_err(rhai_err));
+    let r = run.clone();
+    engine.register_fn("check_models", move |db: &str, obs: ObsHandle, opts: Map| -> Rr<()> {
+        check_models(&r, db, &obs, &opts).map_err(rhai_err)
+    });
     let r = run.clone();
     engine.register_fn("model_db", move |fallback: &str| -> Rr<String> {
         let explicit = r.borrow().options.db.clone();

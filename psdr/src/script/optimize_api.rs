@@ -9,7 +9,6 @@ use crate::loss::Tensor;
 use crate::optim::{glob_match, optimize, select, OptimizeOptions, ParamSpec, Rendered, Schedule, Space};
 use crate::report::OptimizationReport;
 use crate::scene::Scene;
-use indicatif::{ProgressBar, ProgressStyle};
 use rhai::{Array, Dynamic, Engine, EvalAltResult, FnPtr, Map, NativeCallContext};
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -234,38 +233,27 @@ fn run_optimize(ctx: &NativeCallContext, run: &RunRef, scene: &mut Scene, opts: 
     let mut o = options(opts).map_err(rhai_err)?;
     let loss = ScriptLoss::from_options(opts, "optimize")?;
     let label = opts.get("label").and_then(|v| v.clone().into_string().ok());
-    let (quiet, stage_name) = {
+    let quiet = {
         let mut c = run.borrow_mut();
-        let stage_name = c.current.as_ref().map(|s| format!("{:02} {}", s.index, s.name)).unwrap_or_default();
         // Checkpoints live in the stage's folder; outside stages there is nothing to resume into.
         if let Some(stage) = c.current.as_mut() {
             o.checkpoint = Some(stage.dir.join(format!("optimize{}.checkpoint.json", stage.optimizations)));
             stage.optimizations += 1;
         }
         o.resume = c.options.resume;
-        (c.options.quiet, stage_name)
+        c.options.quiet
     };
     let label = label.unwrap_or_else(|| {
         format!("optimize {}", specs.iter().map(|s| s.path.to_string()).collect::<Vec<_>>().join(", "))
     });
     let mut backend = take_backend(run, "optimize")?;
     let mut call = |r: Rc<Rendered>| loss.call(ctx, r);
-    let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(o.iters as u64) };
-    bar.set_style(
-        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} {per_sec} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar.set_prefix(stage_name);
-    let every = o.checkpoint_every.max(1);
+    let progress = crate::progress::activity(label.clone(), Some(o.iters));
     let mut observe = |r: &crate::report::IterationRecord| {
-        bar.set_position(r.iteration as u64 + 1);
-        bar.set_message(format!("loss {:.4e}", r.loss));
-        if !quiet && bar.is_hidden() && (r.iteration + 1).is_multiple_of(every) {
-            eprintln!("  iteration {} loss {:.4e}", r.iteration + 1, r.loss);
-        }
+        progress.set(r.iteration + 1, Some(format!("loss {:.4e}", r.loss)));
     };
     let outcome = optimize(scene, &specs, &mut call, &o, backend.as_mut(), &mut observe);
-    bar.finish_and_clear();
+    drop(progress);
     run.borrow_mut().backend = Some(backend);
     let outcome = outcome.map_err(|e| loss.error(e))?;
     if !quiet {

@@ -113,6 +113,7 @@ impl RunContext {
             std::fs::remove_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         }
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        crate::progress::set_stage(Some(name));
         self.current = Some(CurrentStage {
             index,
             name: name.to_string(),
@@ -152,6 +153,7 @@ impl RunContext {
         let Some(mut stage) = self.current.take() else {
             return Err(Error::Invalid("end of a stage that was not started".into()));
         };
+        let _saving = crate::progress::activity("saving and checking the stage's scene, preview render", None);
         let path = stage.dir.join("scene.json");
         save_scene(scene, &path)?;
         // A stage is finished only once its file reads back as the scene it holds: the next stage and any
@@ -173,6 +175,7 @@ impl RunContext {
             eprintln!("stage {:02} {}: done in {:.1} s", stage.index, stage.name, stage.report.seconds);
         }
         self.report.stages.push(stage.report);
+        crate::progress::set_stage(None);
         Ok(back)
     }
 
@@ -183,6 +186,7 @@ impl RunContext {
             stage.report.status = format!("failed: {why}");
             self.report.stages.push(stage.report);
         }
+        crate::progress::set_stage(None);
     }
 
     /// Renders `scene` at the preview spp to a PNG (sRGB).

@@ -1,5 +1,7 @@
 //! Observations and the room stage in scripts: `observe(PHOTO)`, `obs.photo`, `obs.depth`, `obs.fov`,
-//! `obs.class_mask(class)`, `obs.classes()`, and `room_init(obs)` (the room box and camera as a scene).
+//! `obs.width`, `obs.height`, `obs.class_mask(class)`, `obs.classes()`, `obs.resized(long_side)` (the working
+//! size), `scene.match_photo(obs)` (the camera renders that photo's size and field of view), and
+//! `room_init(obs)` (the room box and camera as a scene).
 
 use super::engine::{rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
@@ -149,6 +151,33 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
         Ok(Tensor::constant(o.0.require_depth().map_err(rhai_err)?.image.clone()))
     });
     engine.register_get("fov", |o: &mut ObsHandle| -> Rr<f64> { Ok(o.0.require_fov().map_err(rhai_err)? as f64) });
+    engine.register_get("width", |o: &mut ObsHandle| o.0.photo.width as i64);
+    engine.register_get("height", |o: &mut ObsHandle| o.0.photo.height as i64);
+    let r = run.clone();
+    engine.register_fn("resized", move |o: &mut ObsHandle, long_side: i64| -> Rr<ObsHandle> {
+        let n = usize::try_from(long_side).map_err(|_| {
+            rhai_err(Error::Invalid(format!("resized: {long_side} is not a size in pixels (0: as is)")))
+        })?;
+        let obs = o.0.resized(n).map_err(rhai_err)?;
+        let mut c = r.borrow_mut();
+        if let Some(v) = c.recorded.get_mut("observations") {
+            v["working_size"] = serde_json::json!([obs.photo.width, obs.photo.height]);
+            v["working_fov_y_deg"] = serde_json::json!(obs.fov_y_deg);
+        }
+        if !c.options.quiet && (obs.photo.width, obs.photo.height) != (o.0.photo.width, o.0.photo.height) {
+            eprintln!(
+                "working size {}x{} (the photo is {}x{}; the final scene is rendered at the photo's size)",
+                obs.photo.width, obs.photo.height, o.0.photo.width, o.0.photo.height
+            );
+        }
+        Ok(ObsHandle(Rc::new(obs)))
+    });
+    engine.register_fn("match_photo", |s: &mut SceneHandle, o: ObsHandle| -> Rr<()> {
+        let fov = o.0.require_fov().map_err(rhai_err)?;
+        let c = &mut s.0.camera;
+        (c.width, c.height, c.fov_y_deg) = (o.0.photo.width as u32, o.0.photo.height as u32, fov);
+        Ok(())
+    });
     engine.register_fn("class_mask", |o: &mut ObsHandle, class: &str| class_mask(&o.0, class).map_err(rhai_err));
     engine.register_fn("classes", |o: &mut ObsHandle| -> Rr<Array> {
         let m = o.0.require_instances().map_err(rhai_err)?;

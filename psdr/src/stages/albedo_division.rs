@@ -73,7 +73,9 @@ fn render(scene: &Scene, spp: u32, seed: u32) -> Result<Vec<f32>> {
 pub fn divide_albedos(scene: &mut Scene, photo: &[f32], segments: &[Segment], rounds: usize, spp: u32) -> Result<()> {
     check(scene, photo, segments)?;
     let want: Vec<Vec3> = segments.iter().map(|s| mean_colour(photo, &s.mask)).collect();
+    let progress = crate::progress::activity(format!("albedos divided out of {spp}-spp renders"), Some(rounds));
     for round in 0..rounds {
+        progress.set(round, None);
         let img = render(scene, spp, scene.settings.seed.wrapping_add(round as u32))?;
         for (s, want) in segments.iter().zip(&want) {
             let got = mean_colour(&img, &s.mask).max(Vec3::splat(1e-4));
@@ -161,7 +163,9 @@ pub fn search_light_scale(
     if lights.is_empty() {
         return Ok(out);
     }
+    let progress = crate::progress::activity("the lights' common scale, per factor", Some(opts.steps));
     for k in 0..opts.steps {
+        progress.set(k, None);
         let f = lo * (hi / lo).powf(k as f32 / (opts.steps - 1) as f32);
         set(scene, Vec3::splat(f));
         divide_albedos(scene, photo, segments, opts.rounds, opts.spp)?;

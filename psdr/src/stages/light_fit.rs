@@ -149,12 +149,21 @@ pub(crate) fn lit_by(scene: &Scene, light: usize, opts: &LightFitOptions) -> Sce
     s
 }
 
-/// The render of `scene` lit by object `light` alone at unit radiance, downsampled as the fit compares it.
+/// The render of `scene` lit by object `light` alone at unit radiance, at the size the fit compares it (1/k of
+/// the camera's, k = `downsample`): rendered at that size where k divides the camera's sides (`spp` per small
+/// pixel), else at the camera's size with spp/k^2 per pixel and box-downsampled, the same samples per block (a
+/// full-size render at `spp` would cost k^2 times as much for the same comparison).
 pub(crate) fn unit_render(scene: &Scene, light: usize, opts: &LightFitOptions) -> Result<Vec<f32>> {
-    let s = lit_by(scene, light, opts);
-    let f = render_cpu(&SceneData::build(&s)?, &s.settings, &|_, _| {});
+    let mut s = lit_by(scene, light, opts);
+    let k = opts.downsample.max(1);
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    Ok(downsample(&f.radiance, w, h, opts.downsample).0)
+    if w % k == 0 && h % k == 0 {
+        (s.camera.width, s.camera.height) = ((w / k) as u32, (h / k) as u32);
+        return Ok(render_cpu(&SceneData::build(&s)?, &s.settings, &|_, _| {}).radiance);
+    }
+    s.settings.spp = opts.spp.div_ceil((k * k) as u32).max(1);
+    let f = render_cpu(&SceneData::build(&s)?, &s.settings, &|_, _| {});
+    Ok(downsample(&f.radiance, w, h, k).0)
 }
 
 /// Per channel, the non-negative least-squares radiances of the `active` basis images for `target`: the
@@ -203,7 +212,15 @@ pub fn fit_lights(scene: &Scene, lights: &[String], photo: &[f32], opts: &LightF
         })
         .collect::<Result<_>>()?;
     let (target, _, _) = downsample(photo, w, h, opts.downsample);
-    let basis: Vec<Vec<f32>> = index.iter().map(|&li| unit_render(scene, li, opts)).collect::<Result<_>>()?;
+    let progress = crate::progress::activity(format!("unit renders of {} lights", index.len()), Some(index.len()));
+    let basis: Vec<Vec<f32>> = index
+        .iter()
+        .map(|&li| {
+            progress.advance();
+            unit_render(scene, li, opts)
+        })
+        .collect::<Result<_>>()?;
+    drop(progress);
     let fit = |active: &[usize]| nnls_fit(&basis, &target, active);
     let norm = target.iter().map(|v| (*v as f64).powi(2)).sum::<f64>().max(1e-30);
     let rel = |err: f64| (err / norm).sqrt() as f32;

@@ -7,9 +7,8 @@
 //! moved light; trials share one seed, so their noise is common and cancels in the comparison. Lights stay
 //! inside the room's box and within `size_range` of their start.
 
-use super::light_fit::{downsample, lit_by, nnls_fit, unit_render, LightFitOptions};
+use super::light_fit::{downsample, nnls_fit, unit_render, LightFitOptions};
 use crate::error::{Error, Result};
-use crate::render::{render_cpu, SceneData};
 use crate::scene::Scene;
 use glam::Vec3;
 
@@ -25,9 +24,8 @@ pub struct LightPlacementOptions {
     /// ...within this range of its start (a light shrunk to a point lights the ceiling next to it with
     /// fireflies; one grown past its cell is two lights).
     pub size_range: (f32, f32),
-    /// The unit renders: samples per pixel, downsampling, path length. Where the photo's size divides by the
-    /// downsampling, they are rendered at the reduced size (`spp` per reduced pixel, not per photo pixel: the
-    /// fit compares k x k blocks, and k^2 times fewer samples make each trial that much cheaper).
+    /// The unit renders: samples per pixel, downsampling, path length. They are made at the size the fit
+    /// compares (`light_fit::unit_render`: `spp` per reduced pixel, not per photo pixel).
     pub render: LightFitOptions,
 }
 
@@ -41,15 +39,6 @@ impl Default for LightPlacementOptions {
             render: LightFitOptions { spp: 64, ..Default::default() },
         }
     }
-}
-
-/// The render of `scene` lit by object `light` alone at unit radiance, at 1/downsample of the camera's size
-/// (which it divides).
-fn unit_render_small(scene: &Scene, light: usize, opts: &LightFitOptions) -> Result<Vec<f32>> {
-    let mut s = lit_by(scene, light, opts);
-    let k = opts.downsample.max(1) as u32;
-    (s.camera.width, s.camera.height) = (s.camera.width / k, s.camera.height / k);
-    Ok(render_cpu(&SceneData::build(&s)?, &s.settings, &|_, _| {}).radiance)
 }
 
 /// The room's box (floor to ceiling, wall to wall) widened by 2 cm, when the scene has the room surfaces.
@@ -121,10 +110,8 @@ pub fn refine_light_placement(
     let norm = target.iter().map(|v| (*v as f64).powi(2)).sum::<f64>().max(1e-30);
     let rel = |err: f64| (err / norm).sqrt() as f32;
     let all: Vec<usize> = (0..lights.len()).collect();
-    let k = ro.downsample.max(1);
-    let small = w % k == 0 && h % k == 0;
-    let render =
-        |scene: &Scene, li: usize| if small { unit_render_small(scene, li, ro) } else { unit_render(scene, li, ro) };
+    let render = |scene: &Scene, li: usize| unit_render(scene, li, ro);
+    let progress = crate::progress::activity(format!("placing {} lights, step {:.2} m", lights.len(), opts.step), None);
     let mut basis: Vec<Vec<f32>> = lights.iter().map(|&i| render(scene, i)).collect::<Result<_>>()?;
     let mut renders = basis.len();
     let (mut rad, mut err) = nnls_fit(&basis, &target, &all);
@@ -158,6 +145,7 @@ pub fn refine_light_placement(
                 }
                 let img = render(scene, li)?;
                 renders += 1;
+                progress.set(renders, Some(format!("unit renders, step {step:.2} m")));
                 let mut b = basis.clone();
                 b[k] = img;
                 let (r, e) = nnls_fit(&b, &target, &all);

@@ -44,7 +44,8 @@ pub use material_search::{
 };
 pub use material_segments::material_segments;
 pub use object_init::{
-    init_objects, init_objects_with, AppearanceCue, Candidate, ObjectInitOptions, ObjectPlacement, SkippedInstance,
+    init_objects, init_objects_with, missing_classes, AppearanceCue, Candidate, ObjectInitOptions, ObjectPlacement,
+    SkippedInstance,
 };
 pub use plane_fit::{fit_plane, fit_plane_in_depth, ransac_plane, symmetric_eigen, Plane};
 pub use point_cloud::{erode, surface_points, Intrinsics, SurfacePoint};

@@ -21,6 +21,7 @@ use crate::loss::Image;
 use crate::scene::{box_mesh, MeshPart, Object, Scene};
 use crate::vision::{cosine, embed, load_photo, ClassKind, Instances, OnnxModel};
 use glam::Vec3;
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 /// Knobs of the initialisation.
@@ -28,6 +29,9 @@ use std::path::PathBuf;
 pub struct ObjectInitOptions {
     /// Instances with fewer pixels are skipped (model no more than the photo shows).
     pub min_pixels: usize,
+    /// An instance whose class the database lacks becomes a box of its observed size (else it is skipped;
+    /// `missing_classes` lets a run stop before any work instead).
+    pub placeholders: bool,
     pub erode: usize,
     /// Yaw angles tried per model (evenly spaced over 360 degrees).
     pub yaws: usize,
@@ -60,6 +64,7 @@ impl Default for ObjectInitOptions {
     fn default() -> Self {
         ObjectInitOptions {
             min_pixels: 100,
+            placeholders: false,
             erode: 1,
             yaws: 16,
             sweep_width: 128,
@@ -174,6 +179,18 @@ pub fn init_objects(
     init_objects_with(scene, depth, inst, models, opts, None)
 }
 
+/// The classes of `inst`'s furniture instances (of at least `min_pixels`) that `models` has no model of, each
+/// with its instances' ids: the object stage could place nothing real for them.
+pub fn missing_classes(inst: &Instances, models: &ModelSet, min_pixels: usize) -> BTreeMap<String, Vec<u16>> {
+    let mut out: BTreeMap<String, Vec<u16>> = BTreeMap::new();
+    for i in inst.instances.iter().filter(|i| i.kind == ClassKind::Furniture && i.pixels >= min_pixels) {
+        if models.of_class(&i.class).is_empty() {
+            out.entry(i.class.clone()).or_default().push(i.id);
+        }
+    }
+    out
+}
+
 /// An image encoder (a CLIP-style embedding model) that compares each instance's crop of the photo with the
 /// candidates' thumbnails, as PSDR-Room retrieves with CLIP: `weight` x cosine similarity is added to a
 /// candidate's rank before the sweep.
@@ -273,7 +290,11 @@ pub fn init_objects_with(
             (pts.len() >= 10).then(|| (i.id, extent(&pts)))
         })
         .collect();
-    for i in inst.instances.iter().filter(|i| i.kind != ClassKind::Structure) {
+    let objects: Vec<&crate::vision::Instance> =
+        inst.instances.iter().filter(|i| i.kind != ClassKind::Structure).collect();
+    let progress = crate::progress::activity("models retrieved and posed per instance", Some(objects.len()));
+    for i in objects {
+        progress.advance();
         let skip = |reason: String| SkippedInstance { instance: i.id, class: i.class.clone(), reason };
         if i.kind == ClassKind::Opening {
             skipped.push(skip("an opening (window or door) belongs to the walls, not a model".into()));
@@ -371,11 +392,18 @@ pub fn init_objects_with(
         let similarities: Vec<Option<f32>> = order.iter().map(|&k| similarity[k]).collect();
         entries = order.iter().map(|&k| entries[k]).collect();
         let mut options: Vec<(Candidate, Vec<MeshPart>, f32)> = vec![];
+        if entries.is_empty() && !opts.placeholders {
+            skipped.push(skip(format!(
+                "no model of class {} in the database (placeholder boxes are off: --set placeholder_boxes=true)",
+                i.class
+            )));
+            continue;
+        }
         if entries.is_empty() {
             let mut b = box_mesh(footprint, false);
             b.positions.iter_mut().for_each(|v| v.y += footprint.y / 2.0);
             let c = Candidate {
-                model: format!("box (no model of class {})", i.class),
+                model: format!("placeholder box (no model of class {})", i.class),
                 path: None,
                 licence: "psdr (generated)".into(),
                 yaw_deg: 0.0,

@@ -118,7 +118,9 @@ pub fn texture_surfaces(
     let mut model = opts.embedding.as_deref().map(crate::vision::load_embedding_model).transpose()?;
     let mut encoder = model.as_mut().map(|model| MaterialEncoder { model, weight: opts.embedding_weight });
     let mut out = vec![];
+    let progress = crate::progress::activity("library textures searched per segment", Some(segments.len()));
     for seg in segments {
+        progress.advance();
         let material = scene
             .materials
             .get(seg.material)

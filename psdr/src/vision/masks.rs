@@ -42,8 +42,14 @@ impl Instances {
 }
 
 /// Reads the ids (a 16-bit grey PNG; 8-bit is accepted for small scenes) and labels; with `size`, a mask of
-/// another size is refused first (before its labels are checked against it).
-pub fn load_instances(masks: &Path, labels: Option<&Path>, size: Option<(usize, usize)>) -> Result<Instances> {
+/// another size is refused first (before its labels are checked against it). Labels of ids the mask does not
+/// hold (an object cropped out of the photo, an exporter that lists every class) are left out with a warning
+/// (returned); labels none of whose ids the mask holds are an error (a mask of another photo).
+pub fn load_instances(
+    masks: &Path,
+    labels: Option<&Path>,
+    size: Option<(usize, usize)>,
+) -> Result<(Instances, Vec<String>)> {
     if !masks.is_file() {
         return Err(Error::io(masks, "mask file not found"));
     }
@@ -68,6 +74,7 @@ pub fn load_instances(masks: &Path, labels: Option<&Path>, size: Option<(usize, 
         return Err(Error::io(masks, "the mask holds no instance (every id is 0)"));
     }
     let mut names: BTreeMap<u16, String> = BTreeMap::new();
+    let mut warnings = vec![];
     if let Some(path) = labels {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let raw: BTreeMap<String, String> = serde_json::from_str(&text)
@@ -81,14 +88,24 @@ pub fn load_instances(masks: &Path, labels: Option<&Path>, size: Option<(usize, 
             }
             names.insert(id, v);
         }
-        if !absent.is_empty() {
+        if !absent.is_empty() && absent.len() == names.len() {
             return Err(Error::io(
                 path,
                 format!(
-                    "labels name ids {absent:?} that the mask {} does not contain (a mask of another photo?)",
-                    masks.display()
+                    "the labels name ids {absent:?}, none of which the mask {} contains (ids there: {:?}; a mask of \
+                     another photo?)",
+                    masks.display(),
+                    counts.keys().collect::<Vec<_>>()
                 ),
             ));
+        }
+        if !absent.is_empty() {
+            warnings.push(format!(
+                "labels: {} names ids {absent:?} that the mask {} does not contain; they are left out",
+                path.display(),
+                masks.display()
+            ));
+            names.retain(|id, _| !absent.contains(id));
         }
     }
     let instances = counts
@@ -99,5 +116,5 @@ pub fn load_instances(masks: &Path, labels: Option<&Path>, size: Option<(usize, 
             Instance { id, label, class: class.to_string(), kind, pixels }
         })
         .collect();
-    Ok(Instances { width, height, ids, instances })
+    Ok((Instances { width, height, ids, instances }, warnings))
 }

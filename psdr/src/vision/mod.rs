@@ -16,6 +16,7 @@ mod onnx_model;
 mod onnx_segmentation;
 mod photo;
 mod vanishing_points;
+mod working_size;
 
 pub use classes::{canonical_class, class_names, ClassKind, UNKNOWN_CLASS};
 pub use depth::{load_depth, Depth, DepthUnits};
@@ -29,3 +30,4 @@ pub use onnx_model::{resize_bilinear, InputContract, ModelOutput, OnnxModel};
 pub use onnx_segmentation::{estimate_instances, ADE20K_CLASSES};
 pub use photo::load_photo;
 pub use vanishing_points::{estimate_fov, FovEstimate, FovFailure, VanishingOptions, VanishingPoint};
+pub use working_size::{working_size, WORKING_MULTIPLE};

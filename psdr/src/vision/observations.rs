@@ -156,11 +156,13 @@ impl Observations {
                 None => None,
             },
         };
+        let mut label_warnings = vec![];
         let instances = match pick(&inputs.masks, &[inputs.beside("masks.png")]) {
             Some((p, src)) => {
                 let labels =
                     inputs.labels.clone().or_else(|| Some(inputs.beside("labels.json")).filter(|l| l.is_file()));
-                let m = load_instances(&p, labels.as_deref(), Some((photo.width, photo.height)))?;
+                let (m, notes) = load_instances(&p, labels.as_deref(), Some((photo.width, photo.height)))?;
+                label_warnings = notes;
                 check_size("instance mask", &p, (m.width, m.height), &photo)?;
                 sources.insert(
                     "instances".into(),
@@ -180,7 +182,7 @@ impl Observations {
                 None => None,
             },
         };
-        let mut warnings = vec![];
+        let mut warnings = label_warnings;
         let mut fov_estimate = None;
         let fov_y_deg = match (inputs.fov_y_deg, inputs.beside("camera.json")) {
             (Some(f), _) => {
