@@ -180,6 +180,21 @@ pub fn report_html(r: &RunReport) -> String {
         r.seed,
         r.total_seconds
     );
+    if !r.stages.is_empty() {
+        s.push_str("<table><tr><th>stage</th><th>status</th><th>seconds</th><th>share</th></tr>");
+        for st in &r.stages {
+            let share = 100.0 * st.seconds / r.total_seconds.max(1e-9);
+            let _ = write!(
+                s,
+                "<tr><td>{:02} {}</td><td>{}</td><td>{:.1}</td><td>{share:.0} %</td></tr>",
+                st.index,
+                esc(&st.name),
+                esc(&st.status),
+                st.seconds
+            );
+        }
+        let _ = write!(s, "<tr><td>run</td><td></td><td>{:.1}</td><td></td></tr></table>", r.total_seconds);
+    }
     for st in &r.stages {
         let _ = write!(
             s,

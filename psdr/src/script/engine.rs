@@ -38,6 +38,9 @@ pub fn check_photo(what: &str, scene: &crate::scene::Scene, photo: &crate::loss:
     Ok(())
 }
 
+/// Images `show` writes for the report are box-downsampled to at most this many pixels on their long side.
+const REPORT_LONG_SIDE: usize = 1024;
+
 /// Rhai operations a script may run before it is stopped: far above any real schedule (whose work happens
 /// in Rust calls, each one operation), far below a runaway loop's minutes.
 pub const MAX_OPERATIONS: u64 = 50_000_000;
@@ -153,7 +156,11 @@ pub fn build_engine(run: &RunRef) -> Engine {
         let file =
             label.chars().map(|ch| if ch.is_ascii_alphanumeric() || ch == '_' { ch } else { '_' }).collect::<String>();
         let path = c.current_dir().join(format!("{file}.png"));
-        super::scene_api::write_image(t.value(), &path).map_err(rhai_err)?;
+        // The report embeds these: a phone photo is shown at most REPORT_LONG_SIDE pixels wide.
+        let img = t.value();
+        let k = img.width.max(img.height).div_ceil(REPORT_LONG_SIDE).max(1);
+        let shown = if k > 1 { crate::loss::downsample(&t, k).map_err(rhai_err)?.value().clone() } else { img.clone() };
+        super::scene_api::write_image(&shown, &path).map_err(rhai_err)?;
         let image = crate::report::ReportImage { label: label.to_string(), path };
         match c.current.as_mut() {
             Some(stage) => stage.report.images.push(image),

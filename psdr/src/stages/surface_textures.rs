@@ -111,6 +111,10 @@ pub fn texture_surfaces(
     if photo.len() != w * h * 3 {
         return Err(Error::Invalid(format!("texture_surfaces: the photo is not the camera's {w}x{h} RGB")));
     }
+    let progress = crate::progress::activity(
+        format!("textures: the shading at {} spp, then the library searched per segment", opts.spp.max(1)),
+        Some(segments.len()),
+    );
     let data = SceneData::build(scene)?;
     let mut settings = scene.settings.clone();
     settings.spp = opts.spp.max(1);
@@ -118,7 +122,6 @@ pub fn texture_surfaces(
     let mut model = opts.embedding.as_deref().map(crate::vision::load_embedding_model).transpose()?;
     let mut encoder = model.as_mut().map(|model| MaterialEncoder { model, weight: opts.embedding_weight });
     let mut out = vec![];
-    let progress = crate::progress::activity("library textures searched per segment", Some(segments.len()));
     for seg in segments {
         progress.advance();
         let material = scene
