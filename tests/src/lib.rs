@@ -11,6 +11,7 @@ use std::path::PathBuf;
 
 pub mod furniture;
 pub mod known_geometry;
+pub mod real_rooms;
 pub mod rooms;
 pub mod sweet_home;
 

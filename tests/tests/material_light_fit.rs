@@ -3,10 +3,11 @@
 //! homogeneous materials (floor, walls, ceiling, a cabinet, a table), started from grey albedos (0.5) and white
 //! unit lights. The fit must reproduce the photo at 1/8 size within 3 % of its mean (RMSE) and every albedo
 //! within 5 % (distance relative to the truth's, RGB), measured by the pipeline's own evaluation against the
-//! truth. The photo is a 256-spp render saved as 8-bit sRGB, as the pipeline reads photos. Measured (16 s):
-//! RMSE 1.4 %, albedos 0.8-4.9 % (worst the table and the cabinet). The margin on the albedos is small by
-//! nature: per colour channel the lights' scale is pinned only by interreflections (`light_scale_search`);
-//! before that search the walls came out 30 % too blue under too yellow lights.
+//! truth; the objects, given where they are, cover their instances exactly (mask IoU 1). The photo is a
+//! 256-spp render saved as 8-bit sRGB, as the pipeline reads photos. Measured (16 s): RMSE 1.4 %, albedos
+//! 0.8-4.9 % (worst the table and the cabinet). The margin on the albedos is small by nature: per colour
+//! channel the lights' scale is pinned only by interreflections (`light_scale_search`); before that search the
+//! walls came out 30 % too blue under too yellow lights.
 
 use psdr_tests::known_geometry::{run_on_known_geometry, truth_room, write_known_geometry};
 
@@ -28,6 +29,11 @@ fn known_geometry_wrong_materials_and_lights_converge_to_the_photo() {
     for s in surfaces {
         assert!(s["error_rel"].as_f64().unwrap() < 0.05, "{s}");
     }
+    // The given geometry is the truth's: each object covers exactly its instance (`evaluation.mask_iou`
+    // through the script's `evaluate`, at the photo's size, against the masks read beside the photo).
+    let ious = e["mask_iou"]["objects"].as_array().unwrap();
+    assert_eq!(ious.len(), 2, "cabinet_7 and table_8: {ious:?}");
+    assert!(e["mask_iou"]["worst"].as_f64().unwrap() > 0.999, "{}", e["mask_iou"]);
     // Homogeneous truth, homogeneous result: no crop looked textured.
     for s in result["recorded"]["surface_textures"].as_array().unwrap() {
         assert!(s["chosen"].is_null(), "{s}");

@@ -78,14 +78,14 @@ pub fn load_obj(path: &Path) -> Result<ObjMesh> {
     Ok(ObjMesh { parts, part_mtl, dropped })
 }
 
+/// What tobj reads: the models and the MTL file's materials (or why they could not be read).
+type TobjModels = (Vec<tobj::Model>, std::result::Result<Vec<tobj::Material>, tobj::LoadError>);
+
 /// Reads an OBJ whose faces name vertices, texture coordinates or normals defined further down the file
 /// (Sweet Home 3D's own reader allows it, and its truck model does it): every `v`, `vt` and `vn` line moved
 /// before the first face, which is what such a file means when no index is relative. A file with relative
 /// (negative) indices or a real out-of-range index still fails, with the reader's reason.
-fn load_forward_references(
-    path: &Path,
-    opts: &tobj::LoadOptions,
-) -> Result<(Vec<tobj::Model>, std::result::Result<Vec<tobj::Material>, tobj::LoadError>)> {
+fn load_forward_references(path: &Path, opts: &tobj::LoadOptions) -> Result<TobjModels> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let is_attribute =
         |l: &str| ["v ", "vt ", "vn ", "v\t", "vt\t", "vn\t"].iter().any(|p| l.trim_start().starts_with(p));

@@ -1,6 +1,7 @@
 //! Ground-truth evaluation in scripts: `evaluate(scene, obs, TRUTH)` or `evaluate(scene, obs, TRUTH, #{spp})`
 //! renders the fitted scene, compares it with the ground-truth scene file of the photo (`stages::evaluate`)
-//! and records the errors in result.json as `evaluation`; it returns them too. For synthetic photos, where a
+//! and records the errors in result.json as `evaluation`; it returns them too. With the photo's instance masks,
+//! `evaluation.mask_iou` gives each placed object's IoU against its instance. For synthetic photos, where a
 //! truth exists: the examples, the tests and the evaluation benchmark.
 
 use super::engine::{rhai_err, Rr, RunRef};
@@ -33,26 +34,28 @@ fn evaluate(run: &RunRef, scene: &SceneHandle, obs: &ObsHandle, truth: &str, opt
     }
     fitted.settings.spp = spp;
     let frame = render_cpu(&SceneData::build(&fitted)?, &fitted.settings, &|_, _| {});
-    // Which model each placed object is (none when the geometry was given).
-    let models: Vec<(String, String)> = run
-        .borrow()
-        .recorded
-        .get("objects_init")
-        .and_then(|o| o["placed"].as_array())
-        .map(|placed| {
-            placed
-                .iter()
-                .filter_map(|p| Some((p["name"].as_str()?.to_string(), p["chosen"]["model"].as_str()?.to_string())))
-                .collect()
+    // Which model each placed object is (none when the geometry was given), and the split pieces merged into it.
+    let placed: Vec<serde_json::Value> =
+        run.borrow().recorded.get("objects_init").and_then(|o| o["placed"].as_array().cloned()).unwrap_or_default();
+    let models: Vec<(String, String)> = placed
+        .iter()
+        .filter_map(|p| Some((p["name"].as_str()?.to_string(), p["chosen"]["model"].as_str()?.to_string())))
+        .collect();
+    let merged: Vec<(String, Vec<u16>)> = placed
+        .iter()
+        .filter_map(|p| {
+            let ids = p["merged"].as_array()?.iter().filter_map(|v| u16::try_from(v.as_u64()?).ok()).collect();
+            Some((p["name"].as_str()?.to_string(), ids))
         })
-        .unwrap_or_default();
+        .collect();
     // The truth's albedo and object images, at the photo's size (its own camera).
     let mut truth_view = truth.clone();
     (truth_view.camera.width, truth_view.camera.height) = (fitted.camera.width, fitted.camera.height);
     truth_view.settings.spp = spp;
     truth_view.settings.max_depth = 1;
     let truth_frame = render_cpu(&SceneData::build(&truth_view)?, &truth_view.settings, &|_, _| {});
-    let errors = crate::stages::evaluate(&fitted, &truth, &models, &frame, &truth_frame, &photo.data);
+    let masks = obs.0.instances.as_ref().map(|m| (m, merged.as_slice()));
+    let errors = crate::stages::evaluate(&fitted, &truth, &models, &frame, &truth_frame, &photo.data, masks);
     run.borrow_mut().recorded.insert("evaluation".into(), errors.clone());
     rhai::serde::to_dynamic(errors).map_err(|e| Error::Invalid(format!("evaluate: {e}")))
 }

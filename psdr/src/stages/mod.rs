@@ -32,7 +32,7 @@ mod window_lights;
 
 pub use albedo_division::{divide_albedos, search_light_scale, LightScale, LightScaleOptions, Segment};
 pub use depth_calibration::{calibrate_relative_depth, DepthCalibration};
-pub use evaluation::{evaluate, relative_rmse_downsampled, room_in_camera_frame, ssim_luminance};
+pub use evaluation::{evaluate, mask_ious, relative_rmse_downsampled, room_in_camera_frame, ssim_luminance, Merged};
 pub use graph_fit::{fit_graph_to_crop, GraphFit, GraphFitOptions};
 pub use instance_merge::{merge_split_instances, MergedInstance};
 pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
