@@ -6,7 +6,7 @@ include!("shader_build.rs");
 fn main() {
     compile_shaders(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders"));
     // The run-time compiler (shaderc, `prefer-static-linking`) links Debian's libshaderc_combined.a, which needs
-    // the glslang and SPIRV-Tools static libraries beside it and the C++ runtime (TOOLCHAIN.md's recipe).
+    // the glslang and SPIRV-Tools static libraries beside it and the C++ runtime: Debian's dynamic libshaderc does not link with the shaderc crate.
     println!("cargo:rustc-link-search=native=/usr/lib/x86_64-linux-gnu");
     for lib in [
         "glslang",

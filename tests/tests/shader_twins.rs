@@ -3,7 +3,7 @@
 //! a method of the same name (`sampler_get` is `Sampler::get`, `recorder_hit` is the `hit` of `impl PathObserver
 //! for Recorder`), a
 //! constructor (`node_ray` is `NodeRay::new`), or listed in the shader's `GLSL only:` line with a reason.
-//! Functions named in the header's parentheses must exist in the twin too. This keeps the pairing (DESIGN.md)
+//! Functions named in the header's parentheses must exist in the twin too. This keeps the pairing (docs/architecture.md)
 //! checkable: a renamed Rust function or a shader helper without a counterpart fails here.
 
 use std::path::{Path, PathBuf};

@@ -40,7 +40,7 @@ pub struct OptimizeOptions {
     /// Divergences tolerated; one more ends the optimisation.
     pub max_divergences: usize,
     /// Use the fused primal-adjoint estimator when the loss allows it (an L2 radiance term of material and
-    /// light parameters; see grad/cross_adjoint.rs).
+    /// light parameters; see grad/interior/fused_l2.rs).
     pub fused: bool,
     /// Write the state to `checkpoint` every this many iterations (0: only at the end).
     pub checkpoint_every: usize,

@@ -5,7 +5,7 @@
 //!             + D(h) G1(wi) G1(wo) F(wi.h) / (4 cos_i cos_o)          GGX specular (Smith, separable)
 //!
 //! F is the exact dielectric Fresnel term with F0 = 0.08 * specular (IOR from F0), alpha = roughness^2.
-//! Symmetric in (wi, wo) (reciprocal) and energy conserving (tests/bsdf.rs checks both numerically).
+//! Symmetric in (wi, wo) (reciprocal) and energy conserving (tests/tests/bsdf.rs checks both numerically).
 //! All functions return values multiplied by cos(theta_o), as in Mitsuba 3.
 
 use glam::Vec3;

@@ -113,7 +113,15 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
         "placed": records,
         "skipped": skipped,
     });
-    run.borrow_mut().recorded.insert("objects_init".into(), summary);
+    let mut c = run.borrow_mut();
+    c.recorded.insert("objects_init".into(), summary);
+    // Third-party models keep their licences: each placed model's attribution goes into the report's credits.
+    for p in &records {
+        let credit = format!("{} ({}): {}", p.chosen.model, p.name, p.chosen.licence);
+        if p.chosen.path.is_some() && !c.report.credits.contains(&credit) {
+            c.report.credits.push(credit);
+        }
+    }
     Ok(out)
 }
 

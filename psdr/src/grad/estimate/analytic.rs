@@ -111,7 +111,7 @@ fn gradient_on(
     for r in 0..opts.replicas.max(1) {
         let mut settings = scene.settings.clone();
         settings.seed = scene.settings.seed.wrapping_add(r);
-        // An L2 radiance loss of material and light parameters: one fused pass (see cross_adjoint.rs).
+        // An L2 radiance loss of material and light parameters: one fused pass (see grad/interior/fused_l2.rs).
         if let (true, true, true, Some(pixelwise)) =
             (radiance, pose_params.is_empty(), settings.spp >= 2, loss.pixelwise())
         {

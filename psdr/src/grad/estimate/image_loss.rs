@@ -36,7 +36,7 @@ pub enum ImageLoss {
     L2To { output: Output, target: Vec<f32> },
     /// Mean of the output times fixed weights (one per value): a linear functional that, unlike the mean,
     /// sees where in the image a change happens, and unlike L2 is unbiased at the primal's own seed
-    /// (what gradient tests differentiate, DESIGN.md).
+    /// (what gradient tests differentiate, docs/architecture.md).
     Weighted { output: Output, weights: Vec<f32> },
 }
 

@@ -1,0 +1,127 @@
+//! Every relative path the documentation and the code's comments name exists in the repository, and nothing
+//! cites a file outside it: Markdown links (`[x](docs/pipeline.md)`, resolved against the Markdown file) and
+//! repository paths written in text or comments (`psdr/src/grad/boundary/shadow.rs`, resolved against the
+//! repository's root) in every tracked Markdown, Rust, GLSL, Rhai, shell, Python and TOML file. A renamed or
+//! removed file that a page still names fails here.
+
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").canonicalize().unwrap()
+}
+
+/// The repository's text files, skipping build output and hidden folders.
+fn files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        let name = e.file_name().to_string_lossy().into_owned();
+        if name.starts_with('.') || name == "target" || name == "node_modules" {
+            continue;
+        }
+        if p.is_dir() {
+            files(&p, out);
+        } else if ["md", "rs", "glsl", "comp", "rhai", "sh", "py", "toml"]
+            .iter()
+            .any(|x| p.extension().is_some_and(|e| e == *x))
+        {
+            out.push(p);
+        }
+    }
+}
+
+/// Top folders whose paths a text may name.
+const TOP: [&str; 10] =
+    ["psdr/", "vk/", "materials/", "shaders/", "scripts/", "tests/", "benchmarks/", "examples/", "docs/", ".ci/"];
+const EXTENSIONS: [&str; 16] =
+    ["rs", "glsl", "comp", "md", "rhai", "json", "py", "sh", "png", "obj", "mtl", "csv", "svg", "toml", "exr", "onnx"];
+
+/// Repository paths in a text: a top folder, then path characters, ending in a known extension.
+fn repo_paths(text: &str) -> Vec<String> {
+    let mut out = vec![];
+    let is_path = |c: char| c.is_ascii_alphanumeric() || "_-./".contains(c);
+    for top in TOP {
+        let mut from = 0;
+        while let Some(i) = text[from..].find(top).map(|i| i + from) {
+            from = i + top.len();
+            // The path must start the token (not "../psdr/" or "target/psdr/").
+            if i > 0 && text[..i].chars().next_back().is_some_and(|c| is_path(c)) {
+                continue;
+            }
+            let end = text[i..].find(|c: char| !is_path(c)).map_or(text.len(), |e| i + e);
+            let p = text[i..end].trim_end_matches(['.', '/']);
+            // Placeholders (NAME, NN) name a pattern, not a file.
+            let placeholder = p.contains("NN") || p.contains("NAME") || p.contains('*');
+            if EXTENSIONS.iter().any(|x| p.ends_with(&format!(".{x}"))) && !placeholder {
+                out.push(p.to_string());
+            }
+        }
+    }
+    out
+}
+
+/// Relative Markdown link targets: `](target)` that are not URLs or anchors.
+fn markdown_links(text: &str) -> Vec<String> {
+    let mut out = vec![];
+    let mut from = 0;
+    while let Some(i) = text[from..].find("](").map(|i| i + from) {
+        from = i + 2;
+        let Some(end) = text[from..].find(')') else { break };
+        let target = text[from..from + end].split('#').next().unwrap_or("").trim().to_string();
+        if !target.is_empty() && !target.contains("://") && !target.starts_with("mailto:") {
+            out.push(target);
+        }
+    }
+    out
+}
+
+#[test]
+fn every_path_the_docs_and_comments_name_exists() {
+    let root = root();
+    let mut all = vec![];
+    files(&root, &mut all);
+    assert!(all.len() > 200, "found only {} files under {}", all.len(), root.display());
+    let outside = [concat!("DESIGN", ".md"), concat!("TOOLCHAIN", ".md"), concat!("../", "shared/")];
+    let mut missing = vec![];
+    let mut checked = 0;
+    for f in &all {
+        let Ok(text) = std::fs::read_to_string(f) else { continue };
+        let rel = f.strip_prefix(&root).unwrap_or(f).display().to_string();
+        if rel == "tests/tests/doc_paths.rs" {
+            continue; // its own examples
+        }
+        // A path may be written from the repository's root, from the file's crate, or from the file's folder.
+        let crate_dir = f.ancestors().skip(1).find(|d| d.join("Cargo.toml").is_file()).unwrap_or(&root).to_path_buf();
+        let exists =
+            |p: &str| [&root, &crate_dir, &f.parent().unwrap().to_path_buf()].iter().any(|d| d.join(p).exists());
+        for o in outside {
+            if text.contains(o) {
+                missing.push(format!("{rel}: cites {o}, a file outside the repository"));
+            }
+        }
+        for p in repo_paths(&text) {
+            checked += 1;
+            if !exists(&p) {
+                missing.push(format!("{rel}: names {p}"));
+            }
+        }
+        if f.extension().is_some_and(|e| e == "md") {
+            for l in markdown_links(&text) {
+                checked += 1;
+                if !f.parent().unwrap().join(&l).exists() {
+                    missing.push(format!("{rel}: links {l}"));
+                }
+            }
+        }
+    }
+    assert!(checked > 100, "only {checked} paths checked: the scanner is broken");
+    assert!(missing.is_empty(), "{} missing:\n{}", missing.len(), missing.join("\n"));
+}
+
+#[test]
+fn the_scanner_finds_paths_and_links() {
+    let text =
+        "see psdr/src/grad/boundary/shadow.rs, `docs/pipeline.md`. Not ../psdr/x.rs nor stages/NN_x/scene.json; \
+                [a](docs/a.md#b) [web](https://x.org/y.md)";
+    assert_eq!(repo_paths(text), vec!["psdr/src/grad/boundary/shadow.rs", "docs/pipeline.md", "docs/a.md"]);
+    assert_eq!(markdown_links(text), vec!["docs/a.md"]);
+}
