@@ -330,3 +330,36 @@ fn resume_after_a_kill_gives_the_uninterrupted_result() {
     let e = cmd(&dir.join("empty"), &["--from", "pose"]).output().unwrap();
     assert!(!e.status.success() && String::from_utf8_lossy(&e.stderr).contains("01_light"));
 }
+
+/// `--until STAGE` ends the run after that stage: its scene is the run's scene.json (with render.png and
+/// result.json), the later stages never start, and a stage given by number works the same.
+#[test]
+fn until_stops_after_the_named_stage_and_writes_its_scene() {
+    for until in ["appearance", "1"] {
+        let out = temp_dir(&format!("until-{until}")).join("out");
+        let s = run_script(
+            ScriptRun {
+                script: repo("scripts/fit.rhai"),
+                photo: repo("examples/fit/target.png"),
+                out: out.clone(),
+                sets: vec!["iters_appearance=3".into()],
+                options: RunOptions {
+                    quiet: true,
+                    preview_spp: 2,
+                    until_stage: Some(until.into()),
+                    ..Default::default()
+                },
+                command: "test".into(),
+            },
+            Box::new(CpuBackend),
+        )
+        .unwrap();
+        assert_eq!(s.stages, 1, "--until {until}");
+        assert!(out.join("stages/01_appearance/stage.json").is_file());
+        assert!(!out.join("stages/02_pose").exists(), "the next stage must not start");
+        let stage = load_scene(&out.join("stages/01_appearance/scene.json")).unwrap();
+        let run = load_scene(&out.join("scene.json")).unwrap();
+        psdr::scene::same_scene(&stage, &run).unwrap();
+        assert!(out.join("render.png").is_file() && result_json(&out)["stages"].as_array().unwrap().len() == 1);
+    }
+}

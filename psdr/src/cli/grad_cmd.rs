@@ -44,7 +44,7 @@ pub struct GradArgs {
     /// Samples per pixel (overrides the scene's render.spp).
     #[arg(long)]
     spp: Option<u32>,
-    #[arg(long, default_value = "cpu")]
+    #[arg(long, default_value = "cpu", value_parser = super::backend_parser())]
     backend: BackendKind,
 }
 
@@ -119,8 +119,11 @@ pub fn run(a: GradArgs) -> anyhow::Result<()> {
             Ok(g) => {
                 let loss = g.loss.map(|l| format!(", loss {l:.6e}")).unwrap_or_default();
                 println!(
-                    "AD: {w}x{h} at {spp} spp, sppe {}, sppse {}, {} replicas, {ad_s:.2} s (CPU){loss}",
-                    a.sppe, a.sppse, a.replicas
+                    "AD: {w}x{h} at {spp} spp, sppe {}, sppse {}, {} replicas, {ad_s:.2} s on {}{loss}",
+                    a.sppe,
+                    a.sppse,
+                    a.replicas,
+                    backend.name()
                 )
             }
             Err(e) => println!("AD: {e}"),

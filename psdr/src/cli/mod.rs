@@ -9,8 +9,15 @@ mod observe_cmd;
 mod render_cmd;
 mod run_cmd;
 
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
+
+/// `--backend`'s values, listed in `--help`: cpu (the reference) or vk (Vulkan compute).
+pub(crate) fn backend_parser() -> impl TypedValueParser<Value = crate::backend::BackendKind> {
+    PossibleValuesParser::new(["cpu", "vk"])
+        .map(|s| s.parse::<crate::backend::BackendKind>().unwrap_or(crate::backend::BackendKind::Cpu))
+}
 
 #[derive(Parser)]
 #[command(

@@ -29,7 +29,7 @@ pub struct RenderArgs {
     #[arg(long, value_delimiter = ',')]
     aov: Vec<Aov>,
     /// Render backend.
-    #[arg(long, default_value = "cpu")]
+    #[arg(long, default_value = "cpu", value_parser = super::backend_parser())]
     backend: BackendKind,
     /// GPU to render on (vk backend): a case-insensitive part of its name, e.g. "llvmpipe"; default: the
     /// PSDR_VK_DEVICE environment variable, else the fastest device.

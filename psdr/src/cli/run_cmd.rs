@@ -1,4 +1,4 @@
-//! `psdr run SCRIPT PHOTO [-o DIR] [--set key=value]... [--from STAGE] [--resume] [observation flags]`: runs a
+//! `psdr run SCRIPT PHOTO [-o DIR] [--set key=value]... [--from STAGE] [--until STAGE] [--resume] [observation flags]`: runs a
 //! Rhai stage script.
 
 use super::observation_args::ObservationArgs;
@@ -22,12 +22,15 @@ pub struct RunArgs {
     /// Load the finished stages before this one (name or number) from DIR and run from it on.
     #[arg(long)]
     from: Option<String>,
+    /// Stop after this stage (name or number): its scene is written as the run's scene.json with the outputs.
+    #[arg(long)]
+    until: Option<String>,
     /// Continue an interrupted run in DIR: finished stages are loaded, an unfinished optimisation continues
     /// from its last checkpoint (same result as an uninterrupted run).
     #[arg(long)]
     resume: bool,
     /// Render backend for the primal renders.
-    #[arg(long, default_value = "cpu")]
+    #[arg(long, default_value = "cpu", value_parser = super::backend_parser())]
     backend: BackendKind,
     /// GPU to render on (vk backend), a part of its name.
     #[arg(long)]
@@ -60,6 +63,7 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
             options: RunOptions {
                 resume: a.resume,
                 from_stage: a.from,
+                until_stage: a.until,
                 quiet: a.quiet,
                 preview_spp: a.preview_spp,
                 observations: Some(a.observations.inputs(&a.photo)),

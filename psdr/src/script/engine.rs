@@ -121,8 +121,17 @@ fn stage(ctx: &NativeCallContext, run: &RunRef, name: &str, scene: Dynamic, f: F
     let mut c = run.borrow_mut();
     match out {
         Ok(s) => {
+            let index = c.current.as_ref().map_or(0, |s| s.index);
             let reloaded = c.end_stage(&s.0).map_err(rhai_err)?;
             c.write_summary(Some(&reloaded)).map_err(rhai_err)?;
+            let until = c.options.until_stage.as_deref();
+            if until.is_some_and(|u| u == name || u.parse::<usize>().ok() == Some(index)) {
+                // `--until`: the run ends here with this stage's scene (run_script writes the outputs).
+                c.stopped_after = Some(reloaded);
+                return Err(
+                    EvalAltResult::ErrorTerminated(Dynamic::from(format!("--until {name}")), Position::NONE).into()
+                );
+            }
             Ok(SceneHandle(reloaded))
         }
         Err(e) => {

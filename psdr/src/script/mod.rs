@@ -107,9 +107,11 @@ pub fn run_script(run: ScriptRun, backend: Box<dyn Backend>) -> Result<RunSummar
     scope.push_constant("OUT_DIR", run.out.to_string_lossy().into_owned());
     let result = engine.eval_ast_with_scope::<Dynamic>(&mut scope, &ast);
     let mut c = ctx.borrow_mut();
-    let value = match result {
-        Ok(v) => v,
-        Err(e) => {
+    let value = match (result, c.stopped_after.take()) {
+        (Ok(v), _) => v,
+        // `--until STAGE`: stopped after that stage, on purpose; its scene is the run's.
+        (Err(_), Some(scene)) => Dynamic::from(SceneHandle(scene)),
+        (Err(e), None) => {
             let err = engine::script_error(&run.script, &e);
             c.fail_stage(&err.to_string());
             c.report.notes.push(format!("the run failed: {err}"));

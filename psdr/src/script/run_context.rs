@@ -18,6 +18,8 @@ pub struct RunOptions {
     pub resume: bool,
     /// Load every finished stage before this one (by name or number) and run from it on.
     pub from_stage: Option<String>,
+    /// Stop the run after this stage (by name or number): its scene becomes the run's scene.
+    pub until_stage: Option<String>,
     pub quiet: bool,
     /// Samples per pixel of the preview render written at the end of each stage.
     pub preview_spp: u32,
@@ -49,6 +51,8 @@ pub struct RunContext {
     pub from_reached: bool,
     pub current: Option<CurrentStage>,
     pub report: RunReport,
+    /// The scene of the `--until` stage once it has finished (the script is then stopped).
+    pub stopped_after: Option<Scene>,
     /// Values the script recorded with `record(key, value)`.
     pub recorded: Map<String, Value>,
     pub started: Instant,
@@ -68,6 +72,7 @@ impl RunContext {
             from_reached,
             current: None,
             report,
+            stopped_after: None,
             recorded: Map::new(),
             started: Instant::now(),
         }
