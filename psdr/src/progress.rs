@@ -16,6 +16,7 @@ pub const EVERY: Duration = Duration::from_secs(10);
 
 struct Entry {
     id: u64,
+    started: Instant,
     label: String,
     done: u64,
     total: Option<u64>,
@@ -29,9 +30,12 @@ struct State {
     stack: Vec<Entry>,
     next_id: u64,
     quiet: bool,
+    /// Outermost activities that ended since the last `take_times`: (label, seconds).
+    times: Vec<(String, f64)>,
 }
 
-static STATE: Mutex<State> = Mutex::new(State { stage: None, stack: Vec::new(), next_id: 0, quiet: true });
+static STATE: Mutex<State> =
+    Mutex::new(State { stage: None, stack: Vec::new(), next_id: 0, quiet: true, times: Vec::new() });
 
 fn state() -> std::sync::MutexGuard<'static, State> {
     STATE.lock().unwrap_or_else(|e| e.into_inner())
@@ -84,7 +88,15 @@ pub fn activity(label: impl Into<String>, total: Option<usize>) -> Activity {
     }
     s.next_id += 1;
     let id = s.next_id;
-    s.stack.push(Entry { id, label, done: 0, total: total.map(|n| n as u64), note: None, bar });
+    s.stack.push(Entry {
+        id,
+        started: Instant::now(),
+        label,
+        done: 0,
+        total: total.map(|n| n as u64),
+        note: None,
+        bar,
+    });
     Activity { id }
 }
 
@@ -118,12 +130,22 @@ impl Drop for Activity {
         if let Some(i) = s.stack.iter().position(|e| e.id == self.id) {
             let e = s.stack.remove(i);
             e.bar.finish_and_clear();
+            // Where a stage's time went: its outermost activities (inner ones are inside those).
+            if i == 0 {
+                s.times.push((e.label, e.started.elapsed().as_secs_f64()));
+            }
         }
         let draw = !s.quiet && std::io::stderr().is_terminal();
         if let (Some(outer), true) = (s.stack.last(), draw) {
             outer.bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
         }
     }
+}
+
+/// The outermost activities that ended since the last call, with their seconds, in order (a stage's phases:
+/// `RunContext` takes them when a stage starts and ends).
+pub fn take_times() -> Vec<(String, f64)> {
+    std::mem::take(&mut state().times)
 }
 
 /// The line the reporter writes: "[lights 1:23] unit renders of 12 lights 5/12".

@@ -950,3 +950,48 @@ pub fn held_out_db(db_dir: &Path, held_out: &[PathBuf], out: &Path) -> psdr::Res
         .map_err(|e| psdr::Error::io(&dest, e))?;
     Ok(dropped)
 }
+
+/// The truth's geometry as `--set geometry=FILE` takes it (the error attribution of bench_real_rooms): the walls
+/// renamed as the room stage names them (wall_x0/x1 on the left and right, wall_z0/z1 behind and in front of the
+/// view), the room surfaces' materials `floor`, `wall` and `ceiling`, every material grey (0.5, homogeneous);
+/// with `lights`, the truth's emitters where they are at unit radiance, else none (the pipeline places its own).
+pub fn known_start(truth: &Scene, lights: bool) -> Scene {
+    let mut s = truth.clone();
+    let rename =
+        [("wall_left", "wall_x0"), ("wall_right", "wall_x1"), ("wall_back", "wall_z0"), ("wall_front", "wall_z1")];
+    for o in s.objects.iter_mut() {
+        if let Some((_, to)) = rename.iter().find(|(from, _)| o.name == *from) {
+            o.name = to.to_string();
+        }
+    }
+    if !lights {
+        s.objects.retain(|o| o.emitter.is_none());
+    }
+    for o in s.objects.iter_mut() {
+        if let Some(e) = o.emitter.as_mut() {
+            e.radiance = Vec3::ONE;
+        }
+    }
+    // Grey homogeneous materials, the room's under the names the material stage gives them.
+    let mut materials: Vec<Material> = vec![];
+    let index = |materials: &mut Vec<Material>, name: &str| {
+        materials.iter().position(|m| m.name == name).unwrap_or_else(|| {
+            materials.push(Material::diffuse(name, Vec3::splat(0.5)));
+            materials.len() - 1
+        })
+    };
+    for o in s.objects.iter_mut() {
+        let room = match o.name.as_str() {
+            "floor" | "ceiling" => Some(o.name.clone()),
+            n if n.starts_with("wall_") => Some("wall".to_string()),
+            _ => None,
+        };
+        for p in o.parts.iter_mut() {
+            let name = room.clone().unwrap_or_else(|| truth.materials[p.material].name.clone());
+            p.material = index(&mut materials, &name);
+        }
+    }
+    s.materials = materials;
+    s.textures.clear();
+    s
+}

@@ -44,7 +44,7 @@ fn repo_paths(text: &str) -> Vec<String> {
         while let Some(i) = text[from..].find(top).map(|i| i + from) {
             from = i + top.len();
             // The path must start the token (not "../psdr/" or "target/psdr/").
-            if i > 0 && text[..i].chars().next_back().is_some_and(|c| is_path(c)) {
+            if i > 0 && text[..i].chars().next_back().is_some_and(&is_path) {
                 continue;
             }
             let end = text[i..].find(|c: char| !is_path(c)).map_or(text.len(), |e| i + e);

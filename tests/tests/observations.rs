@@ -99,11 +99,17 @@ fn bad_observations_are_clear_errors() {
     image::ImageBuffer::<image::Luma<u16>, _>::from_raw(8, 8, vec![1u16; 64]).unwrap().save(&small).unwrap();
     let e = resolve(&ObservationInputs { masks: Some(small.clone()), ..ObservationInputs::new(&photo) });
     assert!(e.contains("8x8") && e.contains("48x36"), "{e}");
-    // Labels naming ids the mask does not hold.
+    // Labels naming only ids the mask does not hold (another photo's labels) are an error...
     let labels = dir.join("bad_labels.json");
+    std::fs::write(&labels, r#"{"998": "chair", "999": "sofa"}"#).unwrap();
+    let e = resolve(&ObservationInputs { labels: Some(labels.clone()), ..ObservationInputs::new(&photo) });
+    assert!(e.contains("999") && e.contains("none of which"), "{e}");
+    // ...while a few stale ids beside matching ones are a warning that names them, and are left out.
     std::fs::write(&labels, r#"{"1": "floor", "999": "sofa"}"#).unwrap();
-    let e = resolve(&ObservationInputs { labels: Some(labels), ..ObservationInputs::new(&photo) });
-    assert!(e.contains("999"), "{e}");
+    let o =
+        Observations::resolve(&ObservationInputs { labels: Some(labels), ..ObservationInputs::new(&photo) }).unwrap();
+    assert!(o.warnings.iter().any(|w| w.contains("999") && w.contains("left out")), "{:?}", o.warnings);
+    assert!(o.instances.as_ref().unwrap().instances.iter().all(|i| i.id != 999 && i.label.as_deref() != Some("sofa")));
     // An all-zero mask.
     let zero = dir.join("zero.png");
     image::ImageBuffer::<image::Luma<u16>, _>::from_raw(48, 36, vec![0u16; 48 * 36]).unwrap().save(&zero).unwrap();

@@ -17,13 +17,13 @@
 //! `BENCH_REAL_ROOMS_ONLY=ROOM:MODE` (e.g. `room03:held_out`, or `room03` for both modes) runs those only;
 //! `BENCH_REAL_ROOMS_SETS="key=value,..."` passes `--set` overrides to every run (quick smoke tests: fewer
 //! iterations; the CSV's `sets` column keeps them); `BENCH_REAL_ROOMS_CHART_ONLY=1` redraws the chart from the
-//! CSV; `BENCH_REAL_ROOMS_GENERATE_ONLY=1` generates the rooms and stops. The rows of the pairs run replace
-//! theirs in the CSV; the other rows stay.
+//! CSV; `BENCH_REAL_ROOMS_GENERATE_ONLY=1` generates the rooms and stops. Each pair's row replaces its row in the
+//! CSV as soon as the pair ends; the other rows stay.
 
 use psdr::backend::CpuBackend;
 use psdr::report::chart::{grid, Line, Point, Series, XyChart};
 use psdr::script::{run_script, RunOptions, ScriptRun};
-use psdr_tests::real_rooms::{generate_rooms, held_out_db, read_models, write_room, RealRoom};
+use psdr_tests::real_rooms::{generate_rooms, held_out_db, known_start, read_models, write_room, RealRoom};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -33,6 +33,13 @@ const WIDTH: u32 = 512;
 const HEIGHT: u32 = 384;
 const PHOTO_SPP: u32 = 128;
 const MODES: [&str; 2] = ["default", "held_out"];
+/// Where the image error comes from (`BENCH_REAL_ROOMS_MODES`): `truth` is the true scene rendered as the
+/// evaluation renders the fitted one (the floor any fit reaches); `known_geometry` runs the pipeline on the
+/// truth's room and furniture (grey, no lights: lights and materials fitted); `known_lights` adds the truth's
+/// lights where they are (radiances and materials fitted).
+const ATTRIBUTION: [&str; 3] = ["truth", "known_geometry", "known_lights"];
+/// The evaluation's samples per pixel (scripts/room.rhai `evaluation_spp`).
+const EVALUATION_SPP: u32 = 16;
 
 const HEADER: &str = "room,mode,crashed,error,sets,objects_true,objects_found,same_class,same_model,mask_iou_median,\
 mask_iou_worst,image_rmse_1_8_pct,ssim,albedo_median_err_pct,lights_true,lights_fitted,s_room,s_objects,s_lights,\
@@ -107,12 +114,32 @@ fn rooms(dir: &Path, db: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The true scene rendered as the evaluation renders a fitted one, against the photo: the CSV row of mode
+/// `truth` (image error and SSIM only).
+fn truth_floor(room_dir: &Path, room: &str) -> anyhow::Result<String> {
+    let mut truth = psdr::scene::load_scene(&room_dir.join("truth.json"))?;
+    truth.settings.spp = EVALUATION_SPP;
+    let f = psdr::render::render_cpu(&psdr::render::SceneData::build(&truth)?, &truth.settings, &|_, _| {});
+    let photo = psdr::vision::load_photo(&room_dir.join("photo.png"))?;
+    let (w, h) = (photo.width, photo.height);
+    let rmse = psdr::stages::relative_rmse_downsampled(&f.radiance, &photo.data, w, h, 8);
+    let ssim = psdr::stages::ssim_luminance(&f.radiance, &photo.data, w, h);
+    let blanks = |n: usize| ",".repeat(n);
+    Ok(format!("{room},truth,0,,{},{:.2},{ssim:.3}{}\n", blanks(6), rmse * 100.0, blanks(8)))
+}
+
 /// Runs the pipeline on one room in one mode; the CSV row.
 fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) -> String {
     let models = read_models(room_dir).unwrap_or_default();
-    let files: Vec<PathBuf> = models.iter().filter_map(|m| m["file"].as_str().map(PathBuf::from)).collect();
+    // One file per model: two chairs of one model round a table are one catalog entry.
+    let mut files: Vec<PathBuf> = models.iter().filter_map(|m| m["file"].as_str().map(PathBuf::from)).collect();
+    files.sort();
+    files.dedup();
     let set_text = field(&sets.join(" "));
     let crashed = |e: String| format!("{room},{mode},1,{},{set_text}{}\n", field(&e), ",".repeat(16));
+    if mode == "truth" {
+        return truth_floor(room_dir, room).unwrap_or_else(|e| crashed(e.to_string()));
+    }
     let db = if mode == "held_out" {
         let held = room_dir.join("held_out_db");
         match held_out_db(db, &files, &held) {
@@ -128,6 +155,15 @@ fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) 
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/room.rhai");
     let mut all_sets = sets.to_vec();
     all_sets.push(format!("truth={}", room_dir.join("truth.json").display()));
+    if mode == "known_geometry" || mode == "known_lights" {
+        let start = room_dir.join(format!("{mode}.json"));
+        let made = psdr::scene::load_scene(&room_dir.join("truth.json"))
+            .and_then(|t| psdr::scene::save_scene(&known_start(&t, mode == "known_lights"), &start));
+        if let Err(e) = made {
+            return crashed(format!("{mode} start: {e}"));
+        }
+        all_sets.push(format!("geometry={}", start.display()));
+    }
     // A panic inside psdr is a crash of this pair, not of the benchmark.
     let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         run_script(
@@ -286,13 +322,19 @@ fn main() -> anyhow::Result<()> {
         return Ok(());
     }
     let only = std::env::var("BENCH_REAL_ROOMS_ONLY").ok();
+    let modes: Vec<String> = std::env::var("BENCH_REAL_ROOMS_MODES")
+        .map(|s| s.split(',').map(|m| m.trim().to_string()).filter(|m| !m.is_empty()).collect())
+        .unwrap_or_else(|_| MODES.iter().map(|m| m.to_string()).collect());
+    if let Some(bad) = modes.iter().find(|m| !MODES.contains(&m.as_str()) && !ATTRIBUTION.contains(&m.as_str())) {
+        anyhow::bail!("BENCH_REAL_ROOMS_MODES: unknown mode '{bad}' ({MODES:?}, {ATTRIBUTION:?})");
+    }
     let sets: Vec<String> = std::env::var("BENCH_REAL_ROOMS_SETS")
         .map(|s| s.split(',').map(str::trim).filter(|s| !s.is_empty()).map(String::from).collect())
         .unwrap_or_default();
     let mut rows = vec![];
     for k in 0..ROOMS {
         let room = format!("room{k:02}");
-        for mode in MODES {
+        for mode in modes.iter().map(String::as_str) {
             let chosen = only.as_ref().is_none_or(|o| *o == room || *o == format!("{room}:{mode}"));
             if !chosen {
                 continue;
@@ -300,6 +342,9 @@ fn main() -> anyhow::Result<()> {
             println!("{room} {mode}...");
             let row = run_one(&dir.join(&room), &room, mode, &db, &sets);
             print!("{row}");
+            // Written after every pair: a long benchmark stopped part way keeps what it measured.
+            let csv = merge(&std::fs::read_to_string(&results).unwrap_or_default(), std::slice::from_ref(&row));
+            psdr_benchmarks::write_results("real_rooms", &csv, &chart(&csv))?;
             rows.push(row);
         }
     }
@@ -310,7 +355,5 @@ fn main() -> anyhow::Result<()> {
             ROOMS - 1
         );
     }
-    let csv = merge(&std::fs::read_to_string(&results).unwrap_or_default(), &rows);
-    psdr_benchmarks::write_results("real_rooms", &csv, &chart(&csv))?;
     Ok(())
 }

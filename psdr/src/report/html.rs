@@ -32,6 +32,9 @@ pub struct StageReport {
     pub status: String,
     pub images: Vec<ReportImage>,
     pub optimizations: Vec<OptimizationReport>,
+    /// Where the stage's time went: its steps (unit renders, searches, optimisations, saving) and seconds.
+    #[serde(default)]
+    pub phases: Vec<(String, f64)>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -206,6 +209,19 @@ pub fn report_html(r: &RunReport) -> String {
         );
         for img in r.images.iter().chain(&st.images) {
             s.push_str(&image_html(img));
+        }
+        if !st.phases.is_empty() {
+            // Every second of the stage: its steps, and what no step covered (setup, small steps).
+            let covered: f64 = st.phases.iter().map(|p| p.1).sum();
+            s.push_str("<table><tr><th>step</th><th>seconds</th></tr>");
+            for (label, t) in &st.phases {
+                let _ = write!(s, "<tr><td style=\"text-align:left\">{}</td><td>{t:.1}</td></tr>", esc(label));
+            }
+            let _ = write!(
+                s,
+                "<tr><td style=\"text-align:left\">other</td><td>{:.1}</td></tr></table>",
+                (st.seconds - covered).max(0.0)
+            );
         }
         for o in &st.optimizations {
             s.push_str(&optimization_html(o));

@@ -119,6 +119,7 @@ impl RunContext {
         }
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         crate::progress::set_stage(Some(name));
+        crate::progress::take_times();
         self.current = Some(CurrentStage {
             index,
             name: name.to_string(),
@@ -132,6 +133,7 @@ impl RunContext {
                 status: "running".into(),
                 images: vec![],
                 optimizations: vec![],
+                phases: vec![],
             },
         });
         Ok(None)
@@ -173,6 +175,7 @@ impl RunContext {
         stage.report.images.push(ReportImage { label: "final".into(), path: preview });
         stage.report.seconds = stage.started.elapsed().as_secs_f64();
         stage.report.status = "done".into();
+        stage.report.phases = crate::progress::take_times();
         let text = serde_json::to_string_pretty(&stage.report).map_err(|e| Error::io(&path, e))?;
         let marker = stage.dir.join(STAGE_MARKER);
         crate::output::write_atomically(&marker, |tmp| std::fs::write(tmp, &text).map_err(|e| Error::io(tmp, e)))?;
@@ -219,6 +222,7 @@ impl RunContext {
             .map(|s| {
                 json!({
                     "index": s.index, "name": s.name, "status": s.status, "seconds": s.seconds,
+                    "phases": s.phases.iter().map(|(l, t)| json!({"step": l, "seconds": t})).collect::<Vec<_>>(),
                     "optimizations": s.optimizations.iter().map(|o| json!({
                         "label": o.label,
                         "iterations": o.iterations.len(),

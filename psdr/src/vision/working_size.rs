@@ -84,8 +84,9 @@ fn area_average(img: &Image, f: &Footprint, ww: usize, wh: usize) -> Result<Imag
                         continue;
                     }
                     total += wt;
-                    for k in 0..c {
-                        sum[k] += wt * img.data[(j * w + i) * c + k] as f64;
+                    let px = &img.data[(j * w + i) * c..][..c];
+                    for (s, &v) in sum.iter_mut().zip(px) {
+                        *s += wt * v as f64;
                     }
                 }
             }
