@@ -4,7 +4,7 @@
 //! twins of the GLSL kernels), `backend` (CPU and Vulkan behind one interface), `output` (EXR/PNG),
 //! `export` (Mitsuba 3), `grad` (derivatives), `loss` (the image-loss tape), `optim` (parameters, Adam, the
 //! optimisation loop), `script` (Rhai stage scripts, `psdr run`), `report` (charts, report.html), `vision`
-//! (photo observations), `stages` (the photo-to-scene stages), `db` (the furniture model database),
+//! (photo observations), `models` (the image models `psdr models fetch` downloads), `stages` (the photo-to-scene stages), `db` (the furniture model database),
 //! `progress` (what a long run is doing, said while it does it), `cli` (the `psdr` binary's commands).
 
 pub mod backend;
@@ -14,6 +14,7 @@ pub mod error;
 pub mod export;
 pub mod grad;
 pub mod loss;
+pub mod models;
 pub mod optim;
 pub mod output;
 pub mod progress;

@@ -107,9 +107,17 @@ fn bad_observations_are_clear_errors() {
     // ...while a few stale ids beside matching ones are a warning that names them, and are left out.
     std::fs::write(&labels, r#"{"1": "floor", "999": "sofa"}"#).unwrap();
     let o =
-        Observations::resolve(&ObservationInputs { labels: Some(labels), ..ObservationInputs::new(&photo) }).unwrap();
+        Observations::resolve(&ObservationInputs { labels: Some(labels.clone()), ..ObservationInputs::new(&photo) })
+            .unwrap();
     assert!(o.warnings.iter().any(|w| w.contains("999") && w.contains("left out")), "{:?}", o.warnings);
     assert!(o.instances.as_ref().unwrap().instances.iter().all(|i| i.id != 999 && i.label.as_deref() != Some("sofa")));
+    // Segmenters' spellings are classes (COCO-panoptic "floor-wood"); a name psdr does not know is a warning.
+    std::fs::write(&labels, r#"{"1": "floor-wood", "2": "spaceship"}"#).unwrap();
+    let o =
+        Observations::resolve(&ObservationInputs { labels: Some(labels), ..ObservationInputs::new(&photo) }).unwrap();
+    let by_id = |id: u16| o.instances.as_ref().unwrap().instances.iter().find(|i| i.id == id).unwrap().class.clone();
+    assert_eq!((by_id(1).as_str(), by_id(2).as_str()), ("floor", "object"));
+    assert!(o.warnings.iter().any(|w| w.contains("'spaceship' (id 2)") && w.contains("object")), "{:?}", o.warnings);
     // An all-zero mask.
     let zero = dir.join("zero.png");
     image::ImageBuffer::<image::Luma<u16>, _>::from_raw(48, 36, vec![0u16; 48 * 36]).unwrap().save(&zero).unwrap();

@@ -4,6 +4,7 @@ mod db_cmd;
 mod export_cmd;
 mod grad_cmd;
 mod materials_cmd;
+mod models_cmd;
 mod observation_args;
 mod observe_cmd;
 mod render_cmd;
@@ -46,6 +47,8 @@ enum Command {
     Materials(materials_cmd::MaterialsArgs),
     /// The furniture model database: build (index libraries and folders), list, show.
     Db(db_cmd::DbArgs),
+    /// The image models (depth, segmentation): fetch the pinned ones once, list what the models folder holds.
+    Models(models_cmd::ModelsArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -58,6 +61,7 @@ pub fn main() -> ExitCode {
         Command::Run(a) => run_cmd::run(a),
         Command::Observe(a) => observe_cmd::run(a),
         Command::Db(a) => db_cmd::run(a),
+        Command::Models(a) => models_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

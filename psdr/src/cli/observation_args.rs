@@ -25,8 +25,9 @@ pub struct ObservationArgs {
     /// Camera height above the floor in metres, the prior that sets the scale when depth is relative.
     #[arg(long, default_value_t = DEFAULT_CAMERA_HEIGHT)]
     camera_height: f32,
-    /// Folder of ONNX models (depth.onnx, segmentation.onnx, fov.onnx; see the README) for what no file gives.
-    #[arg(long, env = "PSDR_MODELS")]
+    /// Folder of ONNX models (depth.onnx, segmentation.onnx, fov.onnx) for what no file gives; default:
+    /// PSDR_MODELS (empty: unset), else ~/.cache/psdr/models where `psdr models fetch` puts them.
+    #[arg(long)]
     models: Option<PathBuf>,
     /// The vanishing-point fov is used only when its bootstrap standard deviation is below this many degrees.
     #[arg(long, default_value_t = 1.0)]
@@ -34,6 +35,11 @@ pub struct ObservationArgs {
 }
 
 impl ObservationArgs {
+    /// `--models`, when given.
+    pub fn models_flag(&self) -> Option<&Path> {
+        self.models.as_deref()
+    }
+
     pub fn inputs(&self, photo: &Path) -> ObservationInputs {
         ObservationInputs {
             photo: photo.to_path_buf(),
@@ -43,7 +49,7 @@ impl ObservationArgs {
             labels: self.labels.clone(),
             fov_y_deg: self.fov,
             camera_height: self.camera_height,
-            models: self.models.clone(),
+            models: crate::models::models_folder(self.models.as_deref()),
             fov_max_sigma_deg: self.fov_max_sigma,
         }
     }

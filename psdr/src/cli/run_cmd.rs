@@ -46,6 +46,10 @@ pub struct RunArgs {
     /// the script's fallback (the repository's small set).
     #[arg(long)]
     db: Option<PathBuf>,
+    /// Download the pinned image models (depth, segmentation) that the models folder lacks before the run
+    /// (as `psdr models fetch` does); without it nothing is downloaded.
+    #[arg(long)]
+    fetch_models: bool,
     /// Observation sources for PHOTO (the script's `observe(PHOTO)`), instead of the files beside it.
     #[command(flatten)]
     observations: ObservationArgs,
@@ -54,6 +58,15 @@ pub struct RunArgs {
 pub fn run(a: RunArgs) -> anyhow::Result<()> {
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let backend = create_backend_on(a.backend, a.device.as_deref())?;
+    if a.fetch_models {
+        let dir = crate::models::fetch_folder(a.observations.models_flag());
+        for entry in &crate::models::Manifest::pinned().models {
+            let f = crate::models::fetch_model(entry, &dir, &|_, _| {})?;
+            if !f.cached && !a.quiet {
+                eprintln!("fetched {} into {} ({})", entry.name, f.path.display(), entry.licence);
+            }
+        }
+    }
     let summary = run_script(
         ScriptRun {
             script: a.script,

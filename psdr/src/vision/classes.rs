@@ -67,14 +67,19 @@ const CLASSES: &[(&str, ClassKind, &[&str])] = &[
 /// The class of an unknown name.
 pub const UNKNOWN_CLASS: &str = "object";
 
-/// The canonical psdr class of a label and its kind; unknown labels are `object`, furniture.
+/// The canonical psdr class of a label and its kind; unknown labels are `object`, furniture. Segmenters' own
+/// spellings are understood: COCO-panoptic's qualifiers (`wall-other-merged`, `door-stuff`) are dropped, and
+/// its `CLASS-MATERIAL` names (`floor-wood`, `wall-brick`) are their class.
 pub fn canonical_class(label: &str) -> (&'static str, ClassKind) {
     let norm: String =
         label.trim().to_lowercase().chars().map(|c| if c == '_' || c == '-' { ' ' } else { c }).collect();
-    let norm = norm.split_whitespace().collect::<Vec<_>>().join(" ");
-    CLASSES
-        .iter()
-        .find(|(name, _, syn)| *name == norm || syn.contains(&norm.as_str()))
+    let words: Vec<&str> = norm.split_whitespace().collect();
+    let find = |name: &str| CLASSES.iter().find(|(c, _, syn)| *c == name || syn.contains(&name));
+    let plain: Vec<&str> = words.iter().copied().filter(|w| !["merged", "other", "stuff"].contains(w)).collect();
+    let hyphenated = label.contains('-');
+    find(&words.join(" "))
+        .or_else(|| find(&plain.join(" ")))
+        .or_else(|| plain.first().filter(|_| hyphenated).and_then(|w| find(w)))
         .map_or((UNKNOWN_CLASS, ClassKind::Furniture), |(name, kind, _)| (*name, *kind))
 }
 
@@ -95,6 +100,23 @@ mod tests {
         assert_eq!(canonical_class("floor"), ("floor", ClassKind::Structure));
         assert_eq!(canonical_class("potted plant"), ("plant", ClassKind::Furniture));
         assert_eq!(canonical_class("spaceship"), ("object", ClassKind::Furniture));
+        // COCO-panoptic and ADE20K names as segmenters emit them.
+        for (label, class) in [
+            ("floor-wood", "floor"),
+            ("wall-other-merged", "wall"),
+            ("wall-brick", "wall"),
+            ("window-other", "window"),
+            ("ceiling-merged", "ceiling"),
+            ("door-stuff", "door"),
+            ("rug-merged", "rug"),
+            ("table-merged", "table"),
+            ("potted plant", "plant"),
+            ("chest of drawers", "cabinet"),
+        ] {
+            assert_eq!(canonical_class(label).0, class, "{label}");
+        }
+        // Only a hyphenated name falls back to its first word: free text "table tennis" is not a table.
+        assert_eq!(canonical_class("table tennis").0, "object");
         // Every synonym maps to its own class (no synonym listed under two classes).
         for (name, _, syn) in CLASSES {
             for s in syn.iter() {

@@ -108,6 +108,18 @@ pub fn load_instances(
             names.retain(|id, _| !absent.contains(id));
         }
     }
+    let unknown: Vec<String> = names
+        .iter()
+        .filter(|(_, label)| canonical_class(label).0 == super::classes::UNKNOWN_CLASS && label.as_str() != "object")
+        .map(|(id, label)| format!("'{label}' (id {id})"))
+        .collect();
+    if !unknown.is_empty() {
+        warnings.push(format!(
+            "labels: no psdr class for {}; kept as `object` (retrieved from the whole database). Known: {}",
+            unknown.join(", "),
+            super::classes::class_names().join(", ")
+        ));
+    }
     let instances = counts
         .into_iter()
         .map(|(id, pixels)| {

@@ -53,7 +53,7 @@ impl ObservationInputs {
             labels: None,
             fov_y_deg: None,
             camera_height: DEFAULT_CAMERA_HEIGHT,
-            models: std::env::var_os("PSDR_MODELS").map(PathBuf::from),
+            models: crate::models::models_folder(None),
             fov_max_sigma_deg: VanishingOptions::default().max_sigma_deg,
         }
     }
@@ -124,7 +124,7 @@ impl Observations {
         let mut sources = BTreeMap::new();
         sources.insert("photo".to_string(), format!("file {}", inputs.photo.display()));
         if let Some(dir) = inputs.models.as_ref().filter(|d| !d.is_dir()) {
-            return Err(Error::io(dir, "the models folder does not exist (--models or PSDR_MODELS)"));
+            return Err(Error::io(dir, "the models folder does not exist (--models or PSDR_MODELS; `psdr models fetch` fills ~/.cache/psdr/models)"));
         }
         // NAME.onnx in the models folder, when there is one.
         let model = |name: &str| -> Result<Option<OnnxModel>> {
@@ -309,8 +309,9 @@ impl Observations {
         self.depth.as_ref().ok_or_else(|| {
             Error::Invalid(format!(
                 "no depth for {}: put {s}.depth.exr (or a 16-bit {s}.depth.png) beside the photo, or pass --depth FILE \
-                 (--depth-units metres|relative|disparity), or --models DIR holding a depth.onnx",
+                 (--depth-units metres|relative|disparity), or --models DIR holding a depth.onnx, {}",
                 self.photo_path.display(),
+                crate::models::fetch_hint("depth.onnx"),
                 s = self.stem()
             ))
         })
@@ -322,8 +323,9 @@ impl Observations {
             Error::Invalid(format!(
                 "no segmentation for {}: put {s}.masks.png (16-bit instance ids, 0 = none) and {s}.labels.json \
                  ({{\"<id>\": \"<class>\"}}) beside the photo, or pass --masks FILE --labels FILE, or --models DIR holding a \
-                 segmentation.onnx",
+                 segmentation.onnx, {}",
                 self.photo_path.display(),
+                crate::models::fetch_hint("segmentation.onnx"),
                 s = self.stem()
             ))
         })
