@@ -105,4 +105,19 @@ fn the_example_photo_becomes_a_scene_close_to_its_truth() {
     // Albedos (the lights on a grid and moved, not the truth's: the scale they and the albedos share is off
     // by more than on a known geometry): every surface within 40 % (measured worst 21 %).
     assert!(num(&e["albedo"]["worst_error_rel"]) < 0.4, "{}", e["albedo"]);
+    // The report opens with the photo, the final render and their difference (written beside it, the
+    // difference within the two images' range), the evaluation and the fitted lights.
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    let summary = html.find("<h2>Summary</h2>").expect("a summary");
+    assert!(summary < html.find("<h2>Stages</h2>").unwrap());
+    for (label, file) in
+        [("photo", "photo.png"), ("final render", "render.png"), ("|render - photo|", "difference.png")]
+    {
+        assert!(html.contains(&format!("<figcaption>{label}</figcaption>")), "{label} missing");
+        assert!(out.join("report").join(file).is_file(), "{file} missing");
+    }
+    let emitters = e["lights"]["fitted"].as_u64().unwrap() + e["lights"]["fitted_windows"].as_u64().unwrap_or(0);
+    assert!(html.contains(&format!("Emitters (lights and windows): {emitters}")), "emitter count");
+    assert!(html.contains("Evaluation against the truth"));
+    assert!(html.contains("image.rmse_rel_1_8"));
 }

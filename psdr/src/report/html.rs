@@ -21,6 +21,9 @@ pub struct RunReport {
     pub total_seconds: f64,
     pub credits: Vec<String>,
     pub notes: Vec<String>,
+    /// The page's top: photo, render and difference; evaluation; lights.
+    #[serde(default)]
+    pub summary: super::summary::Summary,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -82,11 +85,40 @@ fn terms_null_as_nan<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Res
 /// Components of a parameter shown in its trajectory chart.
 const MAX_COMPONENTS: usize = 12;
 
+/// What each component of a parameter is, and its colour where the colour says it (R, G, B in red, green,
+/// blue): by the parameter's last path segment (`material/wall/albedo`, `object/sofa/translation`).
+fn component_names(path: &str, n: usize) -> Vec<(String, Option<&'static str>)> {
+    let last = path.rsplit('/').next().unwrap_or(path);
+    let colour = ["albedo", "radiance", "tint", "colour", "color", "emission"].iter().any(|c| last.contains(c));
+    let axes = ["translation", "position", "scale", "size", "rotation", "normal", "direction"]
+        .iter()
+        .any(|c| last.contains(c));
+    (0..n)
+        .map(|k| match (colour, axes, n, k) {
+            (true, _, 3, _) => (["R", "G", "B"][k].to_string(), Some(["#d62728", "#2ca02c", "#1f77b4"][k])),
+            (_, true, 3 | 4, _) => (["x", "y", "z", "w"][k].to_string(), None),
+            _ => (format!("[{k}]"), None),
+        })
+        .collect()
+}
+
 fn optimization_html(o: &OptimizationReport) -> String {
     let mut s = String::new();
     let _ = write!(s, "<h3>{}</h3>", esc(&o.label));
-    let mut loss = XyChart::new("loss", "iteration", "loss");
-    loss.log_y = o.iterations.iter().all(|r| r.loss > 0.0 || r.loss.is_nan());
+    // An optimisation that ends worse than it started is worth a line of its own.
+    let (first, last) = (o.iterations.first().map(|r| r.loss), o.iterations.last().map(|r| r.loss));
+    if let (Some(a), Some(b)) = (first, last) {
+        if b > a {
+            let _ = write!(
+                s,
+                "<p class=\"warn\">ended above its first loss: {a:.4} &rarr; {b:.4} (+{:.1} %)</p>",
+                100.0 * (b - a) / a.abs().max(1e-30)
+            );
+        }
+    }
+    let log = o.iterations.iter().all(|r| r.loss > 0.0 || r.loss.is_nan());
+    let mut loss = XyChart::new("loss", "iteration", if log { "loss (log scale)" } else { "loss" });
+    (loss.log_y, loss.legend_right) = (log, true);
     loss.series
         .push(Series::line("total", o.iterations.iter().map(|r| Point::new(r.iteration as f64, r.loss)).collect()));
     let term_names: Vec<String> =
@@ -105,7 +137,8 @@ fn optimization_html(o: &OptimizationReport) -> String {
         }
         let title = if n > MAX_COMPONENTS { format!("{name} (first {MAX_COMPONENTS} of {n})") } else { name.clone() };
         let mut c = XyChart::new(&title, "iteration", "value");
-        for k in 0..n.min(MAX_COMPONENTS) {
+        c.legend_right = true;
+        for (k, (label, colour)) in component_names(name, n).into_iter().take(MAX_COMPONENTS).enumerate() {
             let points = o
                 .iterations
                 .iter()
@@ -113,7 +146,11 @@ fn optimization_html(o: &OptimizationReport) -> String {
                     r.values.get(p).and_then(|v| v.get(k)).map(|v| Point::new(r.iteration as f64, *v as f64))
                 })
                 .collect();
-            c.series.push(Series::line(format!("[{k}]"), points));
+            let series = Series::line(label, points);
+            c.series.push(match colour {
+                Some(col) => series.color(col),
+                None => series,
+            });
         }
         s.push_str(&c.svg());
     }
@@ -171,7 +208,7 @@ pub fn report_html(r: &RunReport) -> String {
         "</title><style>body{font-family:sans-serif;margin:1.5em;max-width:1400px}figure{display:inline-block;\
          margin:4px}img{image-rendering:pixelated;min-width:256px}.charts svg{margin:4px;border:1px solid #ddd}\
          table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}\
-         .events li{color:#a40}</style></head><body>",
+         .events li,.warn{color:#a40}</style></head><body>",
     );
     let _ = write!(
         s,
@@ -183,6 +220,34 @@ pub fn report_html(r: &RunReport) -> String {
         r.seed,
         r.total_seconds
     );
+    if !r.summary.images.is_empty() || !r.summary.tables.is_empty() {
+        s.push_str("<h2>Summary</h2>");
+        for img in &r.summary.images {
+            s.push_str(&image_html(img));
+        }
+        s.push_str("<div>");
+        for t in &r.summary.tables {
+            let _ = write!(
+                s,
+                "<table style=\"display:inline-table;vertical-align:top;margin:4px\"><caption>{}</caption><tr>",
+                esc(&t.title)
+            );
+            for h in &t.header {
+                let _ = write!(s, "<th>{}</th>", esc(h));
+            }
+            s.push_str("</tr>");
+            for row in &t.rows {
+                s.push_str("<tr>");
+                for (k, cell) in row.iter().enumerate() {
+                    let align = if k == 0 { " style=\"text-align:left\"" } else { "" };
+                    let _ = write!(s, "<td{align}>{}</td>", esc(cell));
+                }
+                s.push_str("</tr>");
+            }
+            s.push_str("</table>");
+        }
+        s.push_str("</div><h2>Stages</h2>");
+    }
     if !r.stages.is_empty() {
         s.push_str("<table><tr><th>stage</th><th>status</th><th>seconds</th><th>share</th></tr>");
         for st in &r.stages {
@@ -309,5 +374,46 @@ mod tests {
             .collect();
         assert!(leftovers.is_empty());
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn components_are_named_and_a_rising_loss_is_said() {
+        assert_eq!(component_names("material/wall/albedo", 3)[0], ("R".to_string(), Some("#d62728")));
+        assert_eq!(component_names("object/sofa/translation", 3)[2].0, "z");
+        assert_eq!(component_names("object/sofa/rotation", 4)[3].0, "w");
+        assert_eq!(component_names("object/sofa/vertices", 5)[4].0, "[4]");
+        let rec = |i: usize, loss: f64| IterationRecord {
+            iteration: i,
+            loss,
+            values: vec![vec![0.1, 0.2, 0.3]],
+            ..Default::default()
+        };
+        let rising = OptimizationReport {
+            label: "objects".into(),
+            iterations: vec![rec(0, 0.038), rec(1, 0.041)],
+            params: vec!["material/wall/albedo".into()],
+            ..Default::default()
+        };
+        let html = optimization_html(&rising);
+        assert!(html.contains("ended above its first loss: 0.0380 &rarr; 0.0410 (+7.9 %)"), "{html}");
+        assert!(html.contains(">R<") && html.contains("#d62728"), "components named R, G, B in their colours");
+        let falling = OptimizationReport { iterations: vec![rec(0, 0.041), rec(1, 0.038)], ..rising };
+        assert!(!optimization_html(&falling).contains("ended above"));
+        // The summary's tables and images are at the top of the page.
+        let report = RunReport {
+            summary: super::super::summary::Summary {
+                images: vec![],
+                tables: vec![super::super::summary::SummaryTable {
+                    title: "Emitters (lights and windows): 1".into(),
+                    header: vec!["light".into(), "radiance R".into()],
+                    rows: vec![vec!["light_0".into(), "2.500".into()]],
+                }],
+            },
+            stages: vec![StageReport { name: "room".into(), ..Default::default() }],
+            ..Default::default()
+        };
+        let page = report_html(&report);
+        let (summary, stages) = (page.find("Emitters (lights").unwrap(), page.find("<h2>Stages</h2>").unwrap());
+        assert!(summary < stages && page.contains("<td style=\"text-align:left\">light_0</td><td>2.500</td>"));
     }
 }

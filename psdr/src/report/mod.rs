@@ -1,6 +1,9 @@
-//! Reports: SVG charts (`chart`) and the self-contained run report `report.html` (`html`).
+//! Reports: SVG charts (`chart`) and the self-contained run report `report.html` (`html`), whose top is the
+//! run's summary (`summary`).
 
 pub mod chart;
 mod html;
+mod summary;
 
 pub use html::{write_report, IterationRecord, OptimizationReport, ReportImage, RunReport, StageReport};
+pub use summary::{build_summary, Summary, SummaryTable};

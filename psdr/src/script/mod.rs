@@ -91,6 +91,7 @@ pub fn run_script(run: ScriptRun, backend: Box<dyn Backend>) -> Result<RunSummar
         total_seconds: 0.0,
         credits: vec![],
         notes: vec![],
+        summary: Default::default(),
     };
     let _reporter = crate::progress::start_reporter(run.options.quiet);
     let ctx = Rc::new(RefCell::new(RunContext::new(run.out.clone(), run.options.clone(), backend, report)));

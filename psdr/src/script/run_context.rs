@@ -248,6 +248,13 @@ impl RunContext {
             "credits": self.report.credits,
         });
         if let Some(scene) = scene {
+            self.report.summary = crate::report::build_summary(
+                &self.out,
+                Path::new(&self.report.photo),
+                &self.out.join("render.png"),
+                scene,
+                &self.recorded,
+            );
             result["camera"] = super::scene_api::camera_json(scene);
             result["scene"] = super::scene_api::scene_summary(scene);
             if let Some(room) = crate::stages::room_summary(scene) {

@@ -1,0 +1,155 @@
+//! The top of `report.html`: the photo, the final render and their difference side by side, the evaluation
+//! against a truth when the run had one (`--set truth=...`), and the fitted emitters (lights, windows) with
+//! their radiances.
+
+use super::html::ReportImage;
+use crate::loss::Image;
+use crate::scene::Scene;
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+use std::path::Path;
+
+/// The report shows images at most this many pixels on their long side.
+const LONG_SIDE: usize = 1024;
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SummaryTable {
+    pub title: String,
+    pub header: Vec<String>,
+    pub rows: Vec<Vec<String>>,
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    pub images: Vec<ReportImage>,
+    pub tables: Vec<SummaryTable>,
+}
+
+/// The summary of a finished run: images written into `out/report/`, tables from the scene and the recorded
+/// values. Whatever cannot be made (no render, a photo of another size) is left out, never an error.
+pub fn build_summary(out: &Path, photo: &Path, render: &Path, scene: &Scene, recorded: &Map<String, Value>) -> Summary {
+    let mut summary = Summary::default();
+    let dir = out.join("report");
+    let photo = crate::vision::load_photo(photo).ok();
+    let render = crate::vision::load_photo(render).ok();
+    if std::fs::create_dir_all(&dir).is_ok() {
+        let mut shown = |label: &str, file: &str, img: &Image| {
+            let small = shrink(img);
+            let path = dir.join(file);
+            if crate::output::write_png_srgb(&path, small.width as u32, small.height as u32, &small.data).is_ok() {
+                summary.images.push(ReportImage { label: label.into(), path });
+            }
+        };
+        if let Some(p) = &photo {
+            shown("photo", "photo.png", p);
+        }
+        if let Some(r) = &render {
+            shown("final render", "render.png", r);
+        }
+        if let Some(d) = photo.as_ref().zip(render.as_ref()).and_then(|(p, r)| difference(p, r)) {
+            shown("|render - photo|", "difference.png", &d);
+        }
+    }
+    if let Some(Value::Object(e)) = recorded.get("evaluation") {
+        let mut rows = vec![];
+        flatten("", e, 2, &mut rows);
+        summary.tables.push(SummaryTable {
+            title: "Evaluation against the truth".into(),
+            header: vec!["quantity".into(), "value".into()],
+            rows,
+        });
+    }
+    let lights: Vec<Vec<String>> = scene
+        .objects
+        .iter()
+        .filter_map(|o| {
+            let e = o.emitter.as_ref()?;
+            let r = e.radiance;
+            Some(vec![o.name.clone(), format!("{:.3}", r.x), format!("{:.3}", r.y), format!("{:.3}", r.z)])
+        })
+        .collect();
+    summary.tables.push(SummaryTable {
+        title: format!("Emitters (lights and windows): {}", lights.len()),
+        header: ["light", "radiance R", "G", "B"].map(String::from).to_vec(),
+        rows: lights,
+    });
+    summary
+}
+
+/// At most LONG_SIDE pixels on the long side (an integer box filter).
+fn shrink(img: &Image) -> Image {
+    let k = img.width.max(img.height).div_ceil(LONG_SIDE).max(1);
+    if k == 1 {
+        return img.clone();
+    }
+    let (w, h, c) = (img.width / k, img.height / k, img.channels);
+    let mut data = vec![0.0f32; w * h * c];
+    for y in 0..h {
+        for x in 0..w {
+            for ch in 0..c {
+                let mut sum = 0.0;
+                for j in 0..k {
+                    for i in 0..k {
+                        sum += img.data[((y * k + j) * img.width + x * k + i) * c + ch];
+                    }
+                }
+                data[(y * w + x) * c + ch] = sum / (k * k) as f32;
+            }
+        }
+    }
+    Image { width: w, height: h, channels: c, data }
+}
+
+/// Per pixel |render - photo| (linear), when both are RGB of one size.
+fn difference(photo: &Image, render: &Image) -> Option<Image> {
+    let same = (photo.width, photo.height, photo.channels) == (render.width, render.height, render.channels);
+    if !same || photo.channels != 3 {
+        return None;
+    }
+    let data = photo.data.iter().zip(&render.data).map(|(a, b)| (a - b).abs()).collect();
+    Some(Image { width: photo.width, height: photo.height, channels: 3, data })
+}
+
+/// Numbers of a JSON object as table rows, `a.b` for nested ones down to `depth` levels; lists are skipped.
+fn flatten(prefix: &str, v: &Map<String, Value>, depth: usize, rows: &mut Vec<Vec<String>>) {
+    for (k, x) in v {
+        let name = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+        match x {
+            Value::Number(n) => {
+                let f = n.as_f64().unwrap_or(f64::NAN);
+                let text = if n.is_i64() || n.is_u64() { n.to_string() } else { format!("{f:.4}") };
+                rows.push(vec![name, text]);
+            }
+            Value::Object(o) if depth > 1 => flatten(&name, o, depth - 1, rows),
+            _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shrink_averages_boxes_and_difference_needs_one_size() {
+        let img = Image { width: 2048, height: 4, channels: 1, data: (0..2048 * 4).map(|i| (i % 2) as f32).collect() };
+        let s = shrink(&img);
+        assert_eq!((s.width, s.height), (1024, 2));
+        assert!(s.data.iter().all(|&v| (v - 0.5).abs() < 1e-6), "each 2x2 box holds two 0s and two 1s");
+        let a = Image { width: 2, height: 1, channels: 3, data: vec![0.5; 6] };
+        let b = Image { width: 2, height: 1, channels: 3, data: vec![0.2; 6] };
+        assert!(difference(&a, &b).unwrap().data.iter().all(|&v| (v - 0.3).abs() < 1e-6));
+        assert!(difference(&a, &shrink(&img)).is_none());
+    }
+
+    #[test]
+    fn nested_numbers_become_rows() {
+        let v: Value = serde_json::json!({"image": {"ssim": 0.5, "deep": {"x": 1}}, "objects_found": 5, "list": [1]});
+        let mut rows = vec![];
+        flatten("", v.as_object().unwrap(), 2, &mut rows);
+        assert_eq!(
+            rows,
+            vec![vec!["image.ssim".to_string(), "0.5000".into()], vec!["objects_found".into(), "5".into()]]
+        );
+    }
+}
