@@ -17,7 +17,8 @@
 //! `BENCH_REAL_ROOMS_ONLY=ROOM:MODE` (e.g. `room03:held_out`, or `room03` for both modes) runs those only;
 //! `BENCH_REAL_ROOMS_SETS="key=value,..."` passes `--set` overrides to every run (quick smoke tests: fewer
 //! iterations; the CSV's `sets` column keeps them); `BENCH_REAL_ROOMS_CHART_ONLY=1` redraws the chart from the
-//! CSV; `BENCH_REAL_ROOMS_GENERATE_ONLY=1` generates the rooms and stops. Each pair's row replaces its row in the
+//! CSV; `BENCH_REAL_ROOMS_RESCORE=1` recomputes the clipped image error of every row from the runs' renders;
+//! `BENCH_REAL_ROOMS_GENERATE_ONLY=1` generates the rooms and stops. Each pair's row replaces its row in the
 //! CSV as soon as the pair ends; the other rows stay.
 
 use psdr::backend::CpuBackend;
@@ -40,10 +41,12 @@ const MODES: [&str; 2] = ["default", "held_out"];
 const ATTRIBUTION: [&str; 3] = ["truth", "known_geometry", "known_lights"];
 /// The evaluation's samples per pixel (scripts/room.rhai `evaluation_spp`).
 const EVALUATION_SPP: u32 = 16;
+/// Samples per pixel of a run's final render.png (and of the truth's, for the clipped image error).
+const PREVIEW_SPP: u32 = 4;
 
 const HEADER: &str = "room,mode,crashed,error,sets,objects_true,objects_found,same_class,same_model,mask_iou_median,\
 mask_iou_worst,image_rmse_1_8_pct,ssim,albedo_median_err_pct,lights_true,lights_fitted,s_room,s_objects,s_lights,\
-s_materials,s_total";
+s_materials,s_total,image_rmse_clipped_1_8_pct";
 
 /// Column indices of the CSV (see HEADER).
 const COL_IOU: usize = 9;
@@ -125,7 +128,43 @@ fn truth_floor(room_dir: &Path, room: &str) -> anyhow::Result<String> {
     let rmse = psdr::stages::relative_rmse_downsampled(&f.radiance, &photo.data, w, h, 8);
     let ssim = psdr::stages::ssim_luminance(&f.radiance, &photo.data, w, h);
     let blanks = |n: usize| ",".repeat(n);
-    Ok(format!("{room},truth,0,,{},{:.2},{ssim:.3}{}\n", blanks(6), rmse * 100.0, blanks(8)))
+    let clipped = truth_clipped(room_dir)?;
+    Ok(format!("{room},truth,0,,{},{:.2},{ssim:.3}{},{clipped:.2}\n", blanks(6), rmse * 100.0, blanks(8)))
+}
+
+/// The image error as the photo's 8-bit encoding sees a render: the run's render.png (PREVIEW_SPP, clipped
+/// at 1 like the photo) against the photo, RMSE at 1/8 size relative to the photo's mean, in percent. The
+/// evaluation's own figure compares the unclipped render, which a visible light fixture dominates.
+fn clipped_rmse(render_png: &Path, photo_png: &Path) -> anyhow::Result<f64> {
+    let r = psdr::vision::load_photo(render_png)?;
+    let p = psdr::vision::load_photo(photo_png)?;
+    anyhow::ensure!((r.width, r.height) == (p.width, p.height), "{} is not the photo's size", render_png.display());
+    Ok(psdr::stages::relative_rmse_downsampled(&r.data, &p.data, p.width, p.height, 8) as f64 * 100.0)
+}
+
+/// The truth rendered as a run renders its final render.png, through the same clipped comparison.
+fn truth_clipped(room_dir: &Path) -> anyhow::Result<f64> {
+    let mut truth = psdr::scene::load_scene(&room_dir.join("truth.json"))?;
+    truth.settings.spp = PREVIEW_SPP;
+    let f = psdr::render::render_cpu(&psdr::render::SceneData::build(&truth)?, &truth.settings, &|_, _| {});
+    let png = room_dir.join("truth_render.png");
+    psdr::output::write_png_srgb(&png, truth.camera.width, truth.camera.height, &f.radiance)?;
+    clipped_rmse(&png, &room_dir.join("photo.png"))
+}
+
+/// The clipped image error of a finished row (`BENCH_REAL_ROOMS_RESCORE`): from the run's render.png, or the
+/// truth's render for a `truth` row; empty for a crashed run.
+fn rescore(dir: &Path, row: &str) -> String {
+    let cols: Vec<&str> = row.split(',').collect();
+    let base = cols[..HEADER.split(',').count() - 1].join(",");
+    let (room, mode, crashed) = (cols[0], cols[1], cols[2] == "1");
+    let room_dir = dir.join(room);
+    let value = match (crashed, mode) {
+        (true, _) => None,
+        (false, "truth") => truth_clipped(&room_dir).ok(),
+        (false, m) => clipped_rmse(&room_dir.join(format!("out-{m}/render.png")), &room_dir.join("photo.png")).ok(),
+    };
+    format!("{base},{}", value.map(|v| format!("{v:.2}")).unwrap_or_default())
 }
 
 /// Runs the pipeline on one room in one mode; the CSV row.
@@ -136,7 +175,7 @@ fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) 
     files.sort();
     files.dedup();
     let set_text = field(&sets.join(" "));
-    let crashed = |e: String| format!("{room},{mode},1,{},{set_text}{}\n", field(&e), ",".repeat(16));
+    let crashed = |e: String| format!("{room},{mode},1,{},{set_text}{}\n", field(&e), ",".repeat(17));
     if mode == "truth" {
         return truth_floor(room_dir, room).unwrap_or_else(|e| crashed(e.to_string()));
     }
@@ -172,7 +211,12 @@ fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) 
                 photo: room_dir.join("photo.png"),
                 out: out.clone(),
                 sets: all_sets.clone(),
-                options: RunOptions { quiet: true, preview_spp: 4, db: Some(db.clone()), ..Default::default() },
+                options: RunOptions {
+                    quiet: true,
+                    preview_spp: PREVIEW_SPP,
+                    db: Some(db.clone()),
+                    ..Default::default()
+                },
                 command: "bench_real_rooms".into(),
             },
             Box::new(CpuBackend),
@@ -225,8 +269,11 @@ fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) 
         .unwrap_or_default();
     albedo.sort_by(f64::total_cmp);
     let albedo_median = albedo.get(albedo.len() / 2).copied().unwrap_or(f64::NAN);
+    let clipped = clipped_rmse(&out.join("render.png"), &room_dir.join("photo.png"))
+        .map(|v| format!("{v:.2}"))
+        .unwrap_or_default();
     format!(
-        "{room},{mode},0,,{set_text},{},{},{same_class},{same_model},{:.3},{:.3},{:.2},{:.3},{albedo_median:.1},{},{},{:.1},{:.1},{:.1},{:.1},{:.1}\n",
+        "{room},{mode},0,,{set_text},{},{},{same_class},{same_model},{:.3},{:.3},{:.2},{:.3},{albedo_median:.1},{},{},{:.1},{:.1},{:.1},{:.1},{:.1},{clipped}\n",
         models.len(),
         e["objects_found"],
         num(&e["mask_iou"]["median"]),
@@ -295,9 +342,10 @@ fn merge(old: &str, new: &[String]) -> String {
     let mut lines: Vec<String> = old
         .lines()
         .skip(1)
-        .filter(|l| !l.is_empty() && l.split(',').count() == HEADER.split(',').count())
+        // Rows written before the clipped column was added get it empty.
+        .filter(|l| !l.is_empty() && l.split(',').count() + 1 >= HEADER.split(',').count())
+        .map(|l| if l.split(',').count() < HEADER.split(',').count() { format!("{l},") } else { l.to_string() })
         .filter(|l| !new.iter().any(|n| key(n) == key(l)))
-        .map(String::from)
         .collect();
     lines.extend(new.iter().map(|n| n.trim_end().to_string()));
     lines.sort();
@@ -318,6 +366,13 @@ fn main() -> anyhow::Result<()> {
         .map(PathBuf::from)
         .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/real_rooms"));
     rooms(&dir, &db)?;
+    if std::env::var_os("BENCH_REAL_ROOMS_RESCORE").is_some() {
+        let old = merge(&std::fs::read_to_string(&results)?, &[]);
+        let rows: Vec<String> = old.lines().skip(1).map(|r| rescore(&dir, r)).collect();
+        let csv = merge("", &rows);
+        psdr_benchmarks::write_results("real_rooms", &csv, &chart(&csv))?;
+        return Ok(());
+    }
     if std::env::var_os("BENCH_REAL_ROOMS_GENERATE_ONLY").is_some() {
         return Ok(());
     }
