@@ -74,13 +74,62 @@ fn markdown_links(text: &str) -> Vec<String> {
     out
 }
 
+/// Citations of files outside the repository: an upper-case Markdown name (`NOTES.md`) that no file in the
+/// repository has, and a `../` path that climbs out of it from every folder it may be read from.
+/// `bases` are the folders the text's relative paths may be read from (its own, its crate's), relative to the root.
+fn outside_citations(text: &str, names: &std::collections::HashSet<String>, bases: &[PathBuf]) -> Vec<String> {
+    let is_name = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
+    let mut out = vec![];
+    let mut from = 0;
+    while let Some(i) = text[from..].find(".md").map(|i| i + from) {
+        from = i + 3;
+        let start = text[..i].rfind(|c: char| !is_name(c)).map_or(0, |s| s + 1);
+        let stem = &text[start..i];
+        let upper = stem.len() > 1 && stem.chars().all(|c| c.is_ascii_uppercase() || c == '_' || c == '-');
+        let name = format!("{stem}.md");
+        if upper && !names.contains(&name) && !stem.contains("NAME") {
+            out.push(name);
+        }
+    }
+    for (i, _) in text.match_indices("../") {
+        // Only a path that starts at a token's start climbs from where the text is read, not `a/../b`.
+        if i > 0 && text[..i].chars().next_back().is_some_and(|c| c.is_ascii_alphanumeric() || "_-./".contains(c)) {
+            continue;
+        }
+        let end =
+            text[i..].find(|c: char| !(c.is_ascii_alphanumeric() || "_-./".contains(c))).map_or(text.len(), |e| i + e);
+        let p = &text[i..end];
+        if !bases.iter().any(|b| inside(b, p)) {
+            out.push(p.to_string());
+        }
+    }
+    out
+}
+
+/// Whether `rel`, read from `base` (a folder relative to the repository's root), stays inside the repository.
+fn inside(base: &Path, rel: &str) -> bool {
+    let mut depth = base.components().count() as i64;
+    for part in rel.split('/') {
+        match part {
+            ".." => depth -= 1,
+            "" | "." => {}
+            _ => depth += 1,
+        }
+        if depth < 0 {
+            return false;
+        }
+    }
+    true
+}
+
 #[test]
 fn every_path_the_docs_and_comments_name_exists() {
     let root = root();
     let mut all = vec![];
     files(&root, &mut all);
     assert!(all.len() > 200, "found only {} files under {}", all.len(), root.display());
-    let outside = [concat!("DESIGN", ".md"), concat!("TOOLCHAIN", ".md"), concat!("../", "shared/")];
+    let names: std::collections::HashSet<String> =
+        all.iter().filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned())).collect();
     let mut missing = vec![];
     let mut checked = 0;
     for f in &all {
@@ -93,10 +142,12 @@ fn every_path_the_docs_and_comments_name_exists() {
         let crate_dir = f.ancestors().skip(1).find(|d| d.join("Cargo.toml").is_file()).unwrap_or(&root).to_path_buf();
         let exists =
             |p: &str| [&root, &crate_dir, &f.parent().unwrap().to_path_buf()].iter().any(|d| d.join(p).exists());
-        for o in outside {
-            if text.contains(o) {
-                missing.push(format!("{rel}: cites {o}, a file outside the repository"));
-            }
+        let bases: Vec<PathBuf> = [crate_dir.as_path(), f.parent().unwrap()]
+            .iter()
+            .map(|d| d.strip_prefix(&root).unwrap_or(Path::new("")).to_path_buf())
+            .collect();
+        for o in outside_citations(&text, &names, &bases) {
+            missing.push(format!("{rel}: cites {o}, a file outside the repository"));
         }
         for p in repo_paths(&text) {
             checked += 1;
@@ -124,4 +175,9 @@ fn the_scanner_finds_paths_and_links() {
                 [a](docs/a.md#b) [web](https://x.org/y.md)";
     assert_eq!(repo_paths(text), vec!["psdr/src/grad/boundary/shadow.rs", "docs/pipeline.md", "docs/a.md"]);
     assert_eq!(markdown_links(text), vec!["docs/a.md"]);
+    let names = ["README.md".to_string()].into_iter().collect();
+    let cites = "see README.md and NOTES.md, ../elsewhere/x.txt, not a/../b nor docs/NAME.md";
+    assert_eq!(outside_citations(cites, &names, &[PathBuf::new()]), vec!["NOTES.md", "../elsewhere/x.txt"]);
+    // From a crate's folder, `../README.md` is the root's; `../../x` is outside.
+    assert_eq!(outside_citations("../README.md ../../x", &names, &[PathBuf::from("psdr")]), vec!["../../x"]);
 }
