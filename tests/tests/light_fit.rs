@@ -23,8 +23,12 @@ fn nnls_matches_the_constrained_optimum() {
     assert!((x[0] - 1.0).abs() < 1e-9 && (x[1] - 2.0).abs() < 1e-9 && (x[2] - 3.0).abs() < 1e-9, "{x:?}");
 }
 
-#[test]
-fn two_true_lights_among_six_candidates() {
+/// Six candidate lights in a 3 x 2 grid over a furnished room's ceiling, facing down, and the photo of the
+/// room lit by two of them in different colours (256 spp): the candidates' scene, their names, the true
+/// radiances and the photo.
+type LitRoom = (psdr::scene::Scene, Vec<String>, [(&'static str, Vec3); 2], Vec<f32>);
+
+fn two_of_six_lit() -> LitRoom {
     let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.3, 1.5, 2.6), yaw: 5.0, pitch: -12.0, fov: 60.0 };
     let boxes = furniture(&r, 0.25, &mut SplitMix64(3));
     let (base, _) = room_scene(&r, &boxes, false, 128, 96);
@@ -56,6 +60,12 @@ fn two_true_lights_among_six_candidates() {
     truth.settings.max_depth = 3;
     truth.settings.seed = 7;
     let photo = render_cpu(&SceneData::build(&truth).unwrap(), &truth.settings, &|_, _| {}).radiance;
+    (candidates, names, truth_rad, photo)
+}
+
+#[test]
+fn two_true_lights_among_six_candidates() {
+    let (candidates, names, truth_rad, photo) = two_of_six_lit();
     let t = std::time::Instant::now();
     let fit = fit_lights(&candidates, &names, &photo, &LightFitOptions::default()).unwrap();
     eprintln!("{fit:?} in {:.1} s", t.elapsed().as_secs_f32());
@@ -70,6 +80,30 @@ fn two_true_lights_among_six_candidates() {
     }
     assert!((fit.luminance_ratio - 1.0).abs() < 0.03, "luminance ratio {}", fit.luminance_ratio);
     assert!(fit.relative_rms < 0.1 && fit.relative_rms_all <= fit.relative_rms + 1e-6);
+}
+
+/// The same photo as an 8-bit camera records it with a longer exposure: every channel clamped at 1, so the
+/// brightest part of the room (about 15 % of the pixels) reads white. Those pixels only bound the light from
+/// below; the fit leaves them out and finds the true radiances times the exposure, as on the unclipped photo.
+/// (Kept in the fit, where a clipped pixel asks for less light than caused it, they took the brighter light
+/// from 28 to 1.3 in red.)
+#[test]
+fn a_clipped_photo_fits_the_lights_from_what_it_recorded() {
+    let (candidates, names, truth_rad, photo) = two_of_six_lit();
+    let mut brightest: Vec<f32> = photo.chunks(3).map(|c| c[0].max(c[1]).max(c[2])).collect();
+    brightest.sort_by(f32::total_cmp);
+    let exposure = 1.0 / brightest[brightest.len() * 85 / 100];
+    let clipped: Vec<f32> = photo.iter().map(|v| (v * exposure).min(1.0)).collect();
+    let share = clipped.chunks(3).filter(|c| c.iter().any(|v| *v >= 1.0)).count() as f32 / brightest.len() as f32;
+    assert!(share > 0.1, "only {share} of the pixels clip");
+    let fit = fit_lights(&candidates, &names, &clipped, &LightFitOptions::default()).unwrap();
+    for (n, rad) in truth_rad {
+        let i = fit.names.iter().position(|x| x == n).unwrap();
+        for c in 0..3 {
+            let want = rad[c] * exposure;
+            assert!((fit.radiance[i][c] / want - 1.0).abs() < 0.05, "{n}: {:?} vs {}", fit.radiance[i], rad * exposure);
+        }
+    }
 }
 
 /// Candidate lights on a room: none of the ceiling grid where the camera sees it or behind the camera, one

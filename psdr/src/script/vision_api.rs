@@ -1,6 +1,6 @@
-//! Observations and the room stage in scripts: `observe(PHOTO)`, `obs.photo`, `obs.depth`, `obs.fov`,
-//! `obs.width`, `obs.height`, `obs.class_mask(class)`, `obs.classes()`, `obs.resized(long_side)` (the working
-//! size), `scene.match_photo(obs)` (the camera renders that photo's size and field of view), and
+//! Observations and the room stage in scripts: `observe(PHOTO)`, `obs.photo`, `obs.unclipped` (1 where the
+//! photo is not clipped), `obs.depth`, `obs.fov`, `obs.width`, `obs.height`, `obs.class_mask(class)`,
+//! `obs.classes()`, `obs.resized(long_side)` (the working size), `scene.match_photo(obs)` (the camera renders that photo's size and field of view), and
 //! `room_init(obs)` (the room box and camera as a scene).
 
 use super::engine::{rhai_err, Rr, RunRef};
@@ -147,6 +147,11 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
     let r = run.clone();
     engine.register_fn("observe", move |path: &str, opts: Map| observe(&r, path, &opts));
     engine.register_get("photo", |o: &mut ObsHandle| Tensor::constant(o.0.photo.clone()));
+    engine.register_get("unclipped", |o: &mut ObsHandle| -> Rr<Tensor> {
+        let p = &o.0.photo;
+        let mask = crate::vision::unclipped(&p.data, p.width);
+        Ok(Tensor::constant(Image::new(p.width, p.height, 1, mask).map_err(rhai_err)?))
+    });
     engine.register_get("depth", |o: &mut ObsHandle| -> Rr<Tensor> {
         Ok(Tensor::constant(o.0.require_depth().map_err(rhai_err)?.image.clone()))
     });

@@ -10,6 +10,7 @@
 //! with the albedos divided anew, scored by the L1 distance to the photo at 1/downsample size per channel; per
 //! channel the best grid point, refined by a parabola through its neighbours. Albedos are clamped to
 //! 0.01..0.95, so a scale that would need brighter surfaces shows up as a worse fit, not a wrong albedo.
+//! Both leave out the pixels where the photo is clipped (`vision::unclipped`).
 
 use crate::error::{Error, Result};
 use crate::render::{render_cpu, SceneData};
@@ -69,9 +70,21 @@ fn render(scene: &Scene, spp: u32, seed: u32) -> Result<Vec<f32>> {
     Ok(render_cpu(&SceneData::build(scene)?, &settings, &|_, _| {}).radiance)
 }
 
+/// The segments' masks where the photo records the scene (its clipped pixels left out); a segment the photo
+/// shows only clipped is dropped (it keeps its albedo).
+fn recorded(segments: &[Segment], photo: &[f32], width: usize) -> Vec<Segment> {
+    let unclipped = crate::vision::unclipped(photo, width);
+    segments
+        .iter()
+        .map(|s| Segment { material: s.material, mask: s.mask.iter().zip(&unclipped).map(|(m, u)| m * u).collect() })
+        .filter(|s| s.mask.iter().sum::<f32>() > 0.0)
+        .collect()
+}
+
 /// `rounds` rounds of albedo = albedo x photo mean / render mean per segment, renders at `spp`.
 pub fn divide_albedos(scene: &mut Scene, photo: &[f32], segments: &[Segment], rounds: usize, spp: u32) -> Result<()> {
     check(scene, photo, segments)?;
+    let segments = &recorded(segments, photo, scene.camera.width as usize);
     let want: Vec<Vec3> = segments.iter().map(|s| mean_colour(photo, &s.mask)).collect();
     let progress = crate::progress::activity(format!("albedos divided out of {spp}-spp renders"), Some(rounds));
     for round in 0..rounds {
@@ -168,6 +181,9 @@ pub fn search_light_scale(
     // Each factor's division starts from the previous factor's albedos rescaled by the ratio of the factors
     // (exact without interreflections), so one round lands near the converged albedos. Started from the
     // previous albedos unchanged, one round left them a factor step off and the chosen scale 15 % off.
+    // Scored where the photo records the scene: clipped pixels are zero in both images.
+    let recorded_rgb: Vec<f32> = crate::vision::unclipped(photo, w).iter().flat_map(|&u| [u; 3]).collect();
+    let recorded_photo: Vec<f32> = photo.iter().zip(&recorded_rgb).map(|(v, u)| v * u).collect();
     let mut at_factor: Vec<Vec<Vec3>> = vec![];
     let mut previous = Vec3::ONE;
     for step in 0..opts.steps {
@@ -180,7 +196,8 @@ pub fn search_light_scale(
         at_factor.push(albedos(scene, segments));
         let img = render(scene, opts.spp, scene.settings.seed)?;
         out.factors.push(f);
-        out.errors.push(l1_downsampled(&img, photo, w, h, opts.downsample.max(1)));
+        let img: Vec<f32> = img.iter().zip(&recorded_rgb).map(|(v, u)| v * u).collect();
+        out.errors.push(l1_downsampled(&img, &recorded_photo, w, h, opts.downsample.max(1)));
     }
     for c in 0..3 {
         let e = |i: usize| out.errors[i][c];

@@ -4,7 +4,7 @@
 //! height and pitch, every ground-truth object matched to the nearest fitted object of its class (centre error
 //! relative to the camera distance, yaw relative to the camera's, height ratio, whether the model is the same),
 //! the light counts, the render against the photo (RMSE at 1/8 size relative to the photo's mean, SSIM of
-//! the luminance at full size), and the albedos the fit gives each surface the truth shows (floor, walls,
+//! the luminance at full size; the render clamped where an 8-bit photo clips), and the albedos the fit gives each surface the truth shows (floor, walls,
 //! ceiling, every piece of furniture), pixel by pixel through both scenes' albedo images; and, given the photo's
 //! instance masks, every fitted object's rendered pixels against the instance it was fitted to (mask IoU).
 
@@ -327,7 +327,9 @@ pub fn evaluate(
     photo: &[f32],
     masks: Option<(&Instances, &Merged)>,
 ) -> Value {
-    let render = &fitted_frame.radiance;
+    // The render as the photo's camera would record it (clamped at an 8-bit photo's white): a visible lamp
+    // brighter than white is not an error the photo can show.
+    let render = &crate::vision::clip_like_photo(&fitted_frame.radiance, photo);
     let (w, h) = (fitted.camera.width as usize, fitted.camera.height as usize);
     let room = (room_in_camera_frame(fitted), room_in_camera_frame(truth));
     let rel = |k: &str| -> Value {

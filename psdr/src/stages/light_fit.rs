@@ -36,11 +36,11 @@ pub struct LightFit {
     pub names: Vec<String>,
     pub radiance: Vec<[f32; 3]>,
     pub kept: Vec<bool>,
-    /// RMS of (fit - photo) over the downsampled photo, relative to the photo's RMS.
+    /// RMS of (fit - photo) over the downsampled photo, relative to the photo's RMS (clipped pixels left out).
     pub relative_rms: f32,
     /// The same with every candidate light in the fit.
     pub relative_rms_all: f32,
-    /// Mean luminance of the fit over the photo's, downsampled.
+    /// Mean luminance of the fit over the photo's, downsampled (where the photo is not clipped).
     pub luminance_ratio: f32,
 }
 
@@ -57,6 +57,30 @@ pub(crate) fn downsample(data: &[f32], w: usize, h: usize, k: usize) -> (Vec<f32
         }
     }
     (out, dw, dh)
+}
+
+/// The photo as the light fits compare it: box-downsampled by k, and per reduced pixel 1 where every photo
+/// pixel under it records the scene, 0 where one is clipped (`vision::unclipped`): those are left out.
+pub(crate) struct FitTarget {
+    pub values: Vec<f32>,
+    pub weights: Vec<f32>,
+}
+
+impl FitTarget {
+    pub(crate) fn new(photo: &[f32], w: usize, h: usize, k: usize) -> FitTarget {
+        let k = k.max(1);
+        let (values, _, _) = downsample(photo, w, h, k);
+        let ones: Vec<f32> = crate::vision::unclipped(photo, w).iter().flat_map(|&u| [u; 3]).collect();
+        let (covered, _, _) = downsample(&ones, w, h, k);
+        let weights = covered.chunks(3).map(|c| if c[0] > 1.0 - 1e-4 { 1.0 } else { 0.0 }).collect();
+        FitTarget { values, weights }
+    }
+
+    /// Sum of the squared weighted values: the norm the fits' relative errors divide by.
+    pub(crate) fn norm(&self) -> f64 {
+        let w = |i: usize| self.weights[i / 3] as f64;
+        self.values.iter().enumerate().map(|(i, v)| w(i) * (*v as f64).powi(2)).sum::<f64>().max(1e-30)
+    }
 }
 
 /// Non-negative least squares min |A x - b|, x >= 0, for a few columns (Lawson-Hanson active set). `a` is
@@ -166,16 +190,17 @@ pub(crate) fn unit_render(scene: &Scene, light: usize, opts: &LightFitOptions) -
     Ok(downsample(&f.radiance, w, h, k).0)
 }
 
-/// Per channel, the non-negative least-squares radiances of the `active` basis images for `target`: the
-/// radiances (zero for inactive ones) and the squared error summed over channels.
-pub(crate) fn nnls_fit(basis: &[Vec<f32>], target: &[f32], active: &[usize]) -> (Vec<[f32; 3]>, f64) {
-    let px = target.len() / 3;
+/// Per channel, the non-negative least-squares radiances of the `active` basis images for `target` (its
+/// left-out pixels dropped): the radiances (zero for inactive ones) and the squared error summed over channels.
+pub(crate) fn nnls_fit(basis: &[Vec<f32>], target: &FitTarget, active: &[usize]) -> (Vec<[f32; 3]>, f64) {
+    let kept: Vec<usize> = (0..target.weights.len()).filter(|&p| target.weights[p] > 0.0).collect();
+    let px = kept.len();
     let mut rad = vec![[0.0f32; 3]; basis.len()];
     let mut err = 0.0f64;
     for c in 0..3 {
         let cols: Vec<Vec<f64>> =
-            active.iter().map(|&i| (0..px).map(|p| basis[i][p * 3 + c] as f64).collect()).collect();
-        let b: Vec<f64> = (0..px).map(|p| target[p * 3 + c] as f64).collect();
+            active.iter().map(|&i| kept.iter().map(|&p| basis[i][p * 3 + c] as f64).collect()).collect();
+        let b: Vec<f64> = kept.iter().map(|&p| target.values[p * 3 + c] as f64).collect();
         let x = nnls(&cols, &b);
         for (k, &i) in active.iter().enumerate() {
             rad[i][c] = x[k] as f32;
@@ -211,7 +236,7 @@ pub fn fit_lights(scene: &Scene, lights: &[String], photo: &[f32], opts: &LightF
                 .ok_or_else(|| Error::Invalid(format!("light fit: '{n}' is not an emitter of the scene")))
         })
         .collect::<Result<_>>()?;
-    let (target, _, _) = downsample(photo, w, h, opts.downsample);
+    let target = FitTarget::new(photo, w, h, opts.downsample);
     let progress = crate::progress::activity(format!("unit renders of {} lights", index.len()), Some(index.len()));
     let basis: Vec<Vec<f32>> = index
         .iter()
@@ -222,7 +247,7 @@ pub fn fit_lights(scene: &Scene, lights: &[String], photo: &[f32], opts: &LightF
         .collect::<Result<_>>()?;
     drop(progress);
     let fit = |active: &[usize]| nnls_fit(&basis, &target, active);
-    let norm = target.iter().map(|v| (*v as f64).powi(2)).sum::<f64>().max(1e-30);
+    let norm = target.norm();
     let rel = |err: f64| (err / norm).sqrt() as f32;
     let mut active: Vec<usize> = (0..index.len()).collect();
     let (mut rad, mut err) = fit(&active);
@@ -244,15 +269,18 @@ pub fn fit_lights(scene: &Scene, lights: &[String], photo: &[f32], opts: &LightF
         active.retain(|&i| i != drop);
         (rad, err) = (r, e);
     }
-    let lum = |v: &[f32]| v.chunks(3).map(|c| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]).sum::<f32>();
+    let lum = |v: &[f32]| {
+        let l = |c: &[f32]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+        v.chunks(3).zip(&target.weights).map(|(c, w)| w * l(c)).sum::<f32>()
+    };
     let fitted: Vec<f32> =
-        (0..target.len()).map(|k| active.iter().map(|&i| basis[i][k] * rad[i][k % 3]).sum()).collect();
+        (0..target.values.len()).map(|k| active.iter().map(|&i| basis[i][k] * rad[i][k % 3]).sum()).collect();
     Ok(LightFit {
         names: lights.to_vec(),
         kept: (0..index.len()).map(|i| active.contains(&i)).collect(),
         radiance: rad,
         relative_rms: rel(err),
         relative_rms_all: all,
-        luminance_ratio: lum(&fitted) / lum(&target).max(1e-30),
+        luminance_ratio: lum(&fitted) / lum(&target.values).max(1e-30),
     })
 }

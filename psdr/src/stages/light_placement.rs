@@ -7,7 +7,7 @@
 //! moved light; trials share one seed, so their noise is common and cancels in the comparison. Lights stay
 //! inside the room's box and within `size_range` of their start.
 
-use super::light_fit::{downsample, nnls_fit, unit_render, LightFitOptions};
+use super::light_fit::{nnls_fit, unit_render, FitTarget, LightFitOptions};
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -106,8 +106,8 @@ pub fn refine_light_placement(
     let start: Vec<(Vec3, Vec3)> =
         lights.iter().map(|&i| (scene.objects[i].pose.translation, scene.objects[i].pose.scale)).collect();
     let ro = &opts.render;
-    let (target, _, _) = downsample(photo, w, h, ro.downsample.max(1));
-    let norm = target.iter().map(|v| (*v as f64).powi(2)).sum::<f64>().max(1e-30);
+    let target = FitTarget::new(photo, w, h, ro.downsample);
+    let norm = target.norm();
     let rel = |err: f64| (err / norm).sqrt() as f32;
     let all: Vec<usize> = (0..lights.len()).collect();
     let render = |scene: &Scene, li: usize| unit_render(scene, li, ro);

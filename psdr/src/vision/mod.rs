@@ -1,10 +1,11 @@
-//! Photo observations: the photo (`photo`), depth (`depth`), instance segmentation with classes (`masks`,
+//! Photo observations: the photo (`photo`, and where it clips: `clipping`), depth (`depth`), instance segmentation with classes (`masks`,
 //! `classes`), the field of view, and their resolution from flags and files beside the photo
 //! (`observations`), and estimators for what is not given: ONNX models for depth, segmentation and fov
 //! (`onnx_model` and one file per contract), the field of view from vanishing points (`line_segments`,
 //! `vanishing_points`).
 
 mod classes;
+mod clipping;
 mod depth;
 mod line_segments;
 mod masks;
@@ -19,6 +20,7 @@ mod vanishing_points;
 mod working_size;
 
 pub use classes::{canonical_class, class_names, ClassKind, UNKNOWN_CLASS};
+pub use clipping::{clip_like_photo, is_low_dynamic_range, unclipped, CLIPPED_LINEAR};
 pub use depth::{load_depth, Depth, DepthUnits};
 pub use line_segments::{detect_segments, Segment, SegmentOptions};
 pub use masks::{load_instances, Instance, Instances};
