@@ -76,8 +76,16 @@ impl VkBackend {
         }
         let adjoint_buf = upload(&self.ctx, "adjoint", adjoint)?;
         let fp = frame_params(d, settings);
-        let grad =
-            self.sweep_passes(&self.material_light_vjp, d, layout, &slots, fp, &adjoint_buf, &[], |base| base)?;
+        let grad = self.sweep_passes(
+            self.material_light_vjp.get(&self.ctx)?,
+            d,
+            layout,
+            &slots,
+            fp,
+            &adjoint_buf,
+            &[],
+            |base| base,
+        )?;
         layout.finish(grad).map(Some)
     }
 
@@ -103,7 +111,8 @@ impl VkBackend {
         let fp = frame_params(d, settings);
         let scale = adjoint.scale;
         let push = |base| FusedParams { base, seed_b, scale };
-        let grad = self.sweep_passes(&self.fused_l2_vjp, d, layout, &slots, fp, &target, &[&image], push)?;
+        let grad =
+            self.sweep_passes(self.fused_l2_vjp.get(&self.ctx)?, d, layout, &slots, fp, &target, &[&image], push)?;
         let image = image.download_range(0, pixels * 3).map_err(backend_error)?;
         Ok(Some((layout.finish(grad)?, image)))
     }

@@ -99,7 +99,7 @@ impl VkBackend {
             let per_pass = self.pass_path_samples as usize;
             rows_in_order(
                 ctx,
-                &self.aov_vjp,
+                self.aov_vjp.get(&self.ctx)?,
                 &inputs,
                 &tail,
                 pass(SILHOUETTES),
@@ -111,7 +111,16 @@ impl VkBackend {
         let mut interior = vec![0.0f64; len];
         if adjoints.depth.is_some() {
             let per_pass = (self.pass_path_samples / u64::from(settings.spp.max(1))).max(1) as usize;
-            rows_in_order(ctx, &self.aov_vjp, &inputs, &tail, pass(DEPTH_INTERIOR), pixels, per_pass, &mut interior)?;
+            rows_in_order(
+                ctx,
+                self.aov_vjp.get(&self.ctx)?,
+                &inputs,
+                &tail,
+                pass(DEPTH_INTERIOR),
+                pixels,
+                per_pass,
+                &mut interior,
+            )?;
         }
         Ok(Some(boundary.iter().zip(&interior).map(|(b, i)| b + i).collect()))
     }

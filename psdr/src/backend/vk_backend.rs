@@ -17,19 +17,54 @@ const PASS_PATH_SAMPLES: u64 = 1 << 20;
 
 pub struct VkBackend {
     pub(super) ctx: Context,
-    path_trace: Kernel<FrameParams>,
+    path_trace: LazyKernel<FrameParams>,
     /// The adjoint pass of material and light parameters (shaders/grad/interior/material_light.comp).
-    pub(super) material_light_vjp: Kernel<super::vk_adjoint::AdjointParams>,
+    pub(super) material_light_vjp: LazyKernel<super::vk_adjoint::AdjointParams>,
     /// The fused estimator of an L2 loss for material and light parameters (shaders/grad/interior/fused_l2.comp).
-    pub(super) fused_l2_vjp: Kernel<super::vk_adjoint::FusedParams>,
+    pub(super) fused_l2_vjp: LazyKernel<super::vk_adjoint::FusedParams>,
     /// The adjoint pass of depth and masks for poses (shaders/grad/vjp/aov.comp).
-    pub(super) aov_vjp: Kernel<super::vk_aov::AovParams>,
+    pub(super) aov_vjp: LazyKernel<super::vk_aov::AovParams>,
     /// The primary boundary of radiance for poses (shaders/grad/vjp/radiance_pose.comp).
-    pub(super) radiance_pose_vjp: Kernel<super::vk_radiance_pose::RadiancePoseParams>,
+    pub(super) radiance_pose_vjp: LazyKernel<super::vk_radiance_pose::RadiancePoseParams>,
     /// The same with the secondary boundary (shaders/grad/vjp/radiance_pose_secondary.comp); `None` on a device
     /// without shaderFloat64.
-    pub(super) radiance_pose_secondary_vjp: Option<Kernel<super::vk_radiance_pose::RadiancePoseParams>>,
+    pub(super) radiance_pose_secondary_vjp: Option<LazyKernel<super::vk_radiance_pose::RadiancePoseParams>>,
     pub(super) pass_path_samples: u64,
+}
+
+/// A kernel whose pipeline is created at its first use. Creating one costs 0.2-3 s on lavapipe (its LLVM
+/// compile; lavapipe's pipeline cache keeps nothing, 32 bytes of header), 9 s for all six, and most commands
+/// use one or two: `psdr render` only path_trace.
+pub(super) struct LazyKernel<P: bytemuck::Pod> {
+    name: &'static str,
+    words: Vec<u32>,
+    buffers: u32,
+    kernel: std::sync::OnceLock<Kernel<P>>,
+}
+
+impl<P: bytemuck::Pod> LazyKernel<P> {
+    /// Kernel `rel` (`render/path_trace`) with `buffers` bindings, its SPIR-V from `shader_dir` or the build's.
+    fn new(
+        shader_dir: Option<&Path>,
+        name: &'static str,
+        rel: &str,
+        built: psdr_vk::Result<Vec<u32>>,
+        buffers: u32,
+    ) -> Result<Self> {
+        let words = kernel_words(shader_dir, rel, built)?;
+        Ok(LazyKernel { name, words, buffers, kernel: std::sync::OnceLock::new() })
+    }
+
+    /// The kernel, created on `ctx` the first time it is asked for.
+    pub(super) fn get(&self, ctx: &Context) -> Result<&Kernel<P>> {
+        if let Some(k) = self.kernel.get() {
+            return Ok(k);
+        }
+        let k = Kernel::new(ctx, self.name, &self.words, self.buffers).map_err(backend_error)?;
+        // Another thread may have set it meanwhile: both are the same pipeline, either will do.
+        let _ = self.kernel.set(k);
+        Ok(self.kernel.get().expect("set above"))
+    }
 }
 
 /// The folder of GLSL kernels to compile at run time instead of the build's (`shaders/` layout).
@@ -61,29 +96,40 @@ impl VkBackend {
     pub fn with_shader_dir(device: Option<&str>, shader_dir: Option<&Path>) -> Result<VkBackend> {
         let options = ContextOptions { device: device.map(str::to_string), ..Default::default() };
         let ctx = Context::with_options(&options).map_err(backend_error)?;
-        let words = kernel_words(shader_dir, "render/path_trace", psdr_vk::include_spirv!("render/path_trace"))?;
-        let path_trace = Kernel::new(&ctx, "path_trace", &words, 16).map_err(backend_error)?;
-        let words = kernel_words(
-            shader_dir,
+        // SPIR-V is read (or compiled from `shader_dir`) now, so a broken kernel fails at start; pipelines later.
+        let dir = shader_dir;
+        let path_trace =
+            LazyKernel::new(dir, "path_trace", "render/path_trace", psdr_vk::include_spirv!("render/path_trace"), 16)?;
+        let material_light_vjp = LazyKernel::new(
+            dir,
+            "material_light_vjp",
             "grad/interior/material_light",
             psdr_vk::include_spirv!("grad/interior/material_light"),
+            13,
         )?;
-        let material_light_vjp = Kernel::new(&ctx, "material_light_vjp", &words, 13).map_err(backend_error)?;
-        let words =
-            kernel_words(shader_dir, "grad/interior/fused_l2", psdr_vk::include_spirv!("grad/interior/fused_l2"))?;
-        let fused_l2_vjp = Kernel::new(&ctx, "fused_l2_vjp", &words, 14).map_err(backend_error)?;
-        let words = kernel_words(shader_dir, "grad/vjp/aov", psdr_vk::include_spirv!("grad/vjp/aov"))?;
-        let aov_vjp = Kernel::new(&ctx, "aov_vjp", &words, 17).map_err(backend_error)?;
-        let words =
-            kernel_words(shader_dir, "grad/vjp/radiance_pose", psdr_vk::include_spirv!("grad/vjp/radiance_pose"))?;
-        let radiance_pose_vjp = Kernel::new(&ctx, "radiance_pose_vjp", &words, 15).map_err(backend_error)?;
+        let fused_l2_vjp = LazyKernel::new(
+            dir,
+            "fused_l2_vjp",
+            "grad/interior/fused_l2",
+            psdr_vk::include_spirv!("grad/interior/fused_l2"),
+            14,
+        )?;
+        let aov_vjp = LazyKernel::new(dir, "aov_vjp", "grad/vjp/aov", psdr_vk::include_spirv!("grad/vjp/aov"), 17)?;
+        let radiance_pose_vjp = LazyKernel::new(
+            dir,
+            "radiance_pose_vjp",
+            "grad/vjp/radiance_pose",
+            psdr_vk::include_spirv!("grad/vjp/radiance_pose"),
+            15,
+        )?;
         let radiance_pose_secondary_vjp = if ctx.capabilities().shader_float64 {
-            let words = kernel_words(
-                shader_dir,
+            Some(LazyKernel::new(
+                dir,
+                "radiance_pose_secondary_vjp",
                 "grad/vjp/radiance_pose_secondary",
                 psdr_vk::include_spirv!("grad/vjp/radiance_pose_secondary"),
-            )?;
-            Some(Kernel::new(&ctx, "radiance_pose_secondary_vjp", &words, 18).map_err(backend_error)?)
+                18,
+            )?)
         } else {
             None
         };
@@ -220,11 +266,12 @@ impl Backend for VkBackend {
 
         let mut fp = frame_params(d, settings);
         let per_pass = (self.pass_path_samples / n.max(1) as u64).clamp(1, settings.spp as u64) as u32;
+        let path_trace = self.path_trace.get(&self.ctx)?;
         let mut begin = 0;
         while begin < settings.spp {
             fp.sample_begin = begin;
             fp.sample_count = per_pass.min(settings.spp - begin);
-            self.path_trace
+            path_trace
                 .dispatch(&bindings, &fp, Groups::covering_image(d.camera.width, d.camera.height, [8, 8]))
                 .map_err(backend_error)?;
             begin += fp.sample_count;

@@ -95,7 +95,16 @@ impl VkBackend {
         let push = |begin, count| RadiancePoseParams { begin, count, mode: PRIMARY, ..params };
         let corners = upload(ctx, "corner_ids", &corner_ids(d, pose))?;
         let tail = [&corners as &dyn StorageBinding];
-        rows_in_order(ctx, &self.radiance_pose_vjp, &inputs, &tail, push, edge_samples as usize, per_pass, &mut grad)?;
+        rows_in_order(
+            ctx,
+            self.radiance_pose_vjp.get(&self.ctx)?,
+            &inputs,
+            &tail,
+            push,
+            edge_samples as usize,
+            per_pass,
+            &mut grad,
+        )?;
         Ok(Some(grad))
     }
 
@@ -166,7 +175,16 @@ impl VkBackend {
         if secondary_samples == 0 {
             let push = |begin, count| RadiancePoseParams { begin, count, ..params };
             let tail = [&corners as &dyn StorageBinding];
-            rows_in_order(ctx, &self.radiance_pose_vjp, &inputs, &tail, push, pixels, per_pass, &mut grad)?;
+            rows_in_order(
+                ctx,
+                self.radiance_pose_vjp.get(&self.ctx)?,
+                &inputs,
+                &tail,
+                push,
+                pixels,
+                per_pass,
+                &mut grad,
+            )?;
             return Ok(Some(grad));
         }
         let words = SecondaryEdges::build(scene, pose).gpu_words();
@@ -179,7 +197,7 @@ impl VkBackend {
         ];
         let tail: Vec<&dyn StorageBinding> =
             tail.iter().map(|b| b.as_ref()).chain([&corners as &dyn StorageBinding]).collect();
-        let kernel = self.radiance_pose_secondary_vjp.as_ref().expect("checked above");
+        let kernel = self.radiance_pose_secondary_vjp.as_ref().expect("checked above").get(&self.ctx)?;
         let push = |begin, count| RadiancePoseParams { begin, count, ..params };
         rows_in_order(ctx, kernel, &inputs, &tail, push, pixels, per_pass, &mut grad)?;
         Ok(Some(grad))
