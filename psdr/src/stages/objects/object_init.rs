@@ -12,13 +12,13 @@ use super::instance_merge::merge_split_instances;
 use super::object_support::{
     back, back_to_the_wall, half_depth, resting_on, wall_behind, wall_below, walls_of, Extent,
 };
-use super::point_cloud::{erode, surface_points, Intrinsics};
 use super::pose_search::{
     align, distinct_yaws, footprint_size, percentile, pose_at, score, sweep_target, PoseRenderer, PoseSearch,
 };
 use crate::db::{best_view_iou, ModelEntry, ModelSet, Silhouette};
 use crate::loss::Image;
 use crate::scene::{box_mesh, MeshPart, Object, Scene};
+use crate::stages::geometry::{erode, surface_points, Intrinsics};
 use crate::vision::{cosine, embed, load_photo, ClassKind, Instances, OnnxModel};
 use glam::Vec3;
 use std::collections::BTreeMap;

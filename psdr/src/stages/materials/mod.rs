@@ -1,0 +1,21 @@
+//! The material stage: which photo pixels show which material (`material_segments`), albedos divided out of
+//! the shading and the lights' common scale (`albedo_division`), the procedural library searched on a crop
+//! (`material_search`, through `texture_view`) and fitted to it (`graph_fit`), and applied to the surfaces that
+//! show a texture (`surface_textures`).
+
+mod albedo_division;
+mod graph_fit;
+mod material_search;
+mod material_segments;
+mod surface_textures;
+mod texture_view;
+
+pub use albedo_division::{divide_albedos, search_light_scale, LightScale, LightScaleOptions, Segment};
+pub use graph_fit::{fit_graph_to_crop, GraphFit, GraphFitOptions};
+pub use material_search::{
+    contrast, library_textures, search_materials, search_materials_on, search_materials_with, transformed_view,
+    view_at, LibraryTexture, MaterialEncoder, MaterialMatch,
+};
+pub use material_segments::material_segments;
+pub use surface_textures::{texture_surfaces, SurfaceTexture, SurfaceTextureOptions};
+pub use texture_view::{texture_view, texture_view_backward, Mips, UvGrid};
