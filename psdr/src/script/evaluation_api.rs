@@ -4,7 +4,7 @@
 //! `evaluation.mask_iou` gives each placed object's IoU against its instance. For synthetic photos, where a
 //! truth exists: the examples, the tests and the evaluation benchmark.
 
-use super::engine::{rhai_err, Rr, RunRef};
+use super::api_support::{rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
 use super::vision_api::ObsHandle;
 use crate::error::Error;

@@ -4,7 +4,7 @@
 //! photo shows as area lights. `place_lights(s, photo, #{step, min_step, size_factor, spp, downsample})` moves
 //! and sizes the lights by pattern search (`stages::light_placement`), recorded as `light_placement`.
 
-use super::engine::{check_photo, option_number, rhai_err, Rr, RunRef};
+use super::api_support::{check_photo, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
 use super::vision_api::ObsHandle;
 use crate::error::Error;

@@ -10,7 +10,7 @@
 //! from the library, its graph fitted to the crop (`stages::surface_textures`, `stages::graph_fit`), recorded
 //! as `surface_textures` (crops, top matches, decisions, the graph fits).
 
-use super::engine::{check_photo, option_number, rhai_err, Rr, RunRef};
+use super::api_support::{check_photo, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
 use super::vision_api::ObsHandle;
 use crate::error::Error;

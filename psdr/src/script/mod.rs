@@ -6,6 +6,7 @@
 //! `tensor_api` (loss ops and operators), `vision_api` (observations, room initialisation), `optimize_api` (`optimize`), `crops` (crop strategies),
 //! `run_context` (output folder, stages, resumption, result.json and report.html).
 
+mod api_support;
 mod crops;
 mod engine;
 mod evaluation_api;

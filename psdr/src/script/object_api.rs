@@ -4,7 +4,7 @@
 //! mask: the instance's with pieces merged into it, merged: their ids), `obs.instance_mask(id)` gives an
 //! instance's mask as a loss target. Placements, alternatives and skipped instances go into result.json.
 
-use super::engine::{rhai_err, Rr, RunRef};
+use super::api_support::{rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
 use super::vision_api::ObsHandle;
 use crate::db::ModelSet;
@@ -139,7 +139,7 @@ fn check_models(run: &RunRef, db: &str, obs: &ObsHandle, opts: &Map) -> crate::R
                     .as_bool()
                     .map_err(|_| Error::Invalid("check_models: 'placeholders' must be true or false".into()))?
             }
-            "min_pixels" => min_pixels = super::engine::option_number("check_models", k, v)?.max(0.0) as usize,
+            "min_pixels" => min_pixels = super::api_support::option_number("check_models", k, v)?.max(0.0) as usize,
             other => {
                 return Err(Error::Invalid(format!(
                     "check_models: unknown option '{other}' (placeholders, min_pixels)"

@@ -2,7 +2,7 @@
 //! specs and optimiser settings, runs the loop with the script's loss closure, checkpoints inside stages, and
 //! adds the optimisation to the stage's report.
 
-use super::engine::{rhai_err, Rr, RunRef};
+use super::api_support::{rhai_err, Rr, RunRef};
 use super::scene_api::{RenderHandle, SceneHandle};
 use crate::error::{Error, Result};
 use crate::loss::Tensor;

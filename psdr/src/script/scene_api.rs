@@ -1,7 +1,7 @@
 //! Scenes, renders and images in scripts: `load_scene`, `scene.get/set`, `render`, `load_image`,
 //! `load_photo`, `save_image`, and the JSON summaries `result.json` holds.
 
-use super::engine::{rhai_err, Rr, RunRef};
+use super::api_support::{rhai_err, Rr, RunRef};
 use crate::error::{Error, Result};
 use crate::loss::{Image, Tensor};
 use crate::optim::{select, Rendered};

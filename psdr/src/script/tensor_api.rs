@@ -2,8 +2,8 @@
 //! numbers, and the crop strategies. A loss closure composes these; each call is recorded on the iteration's
 //! tape when one of its inputs is a rendered output.
 
+use super::api_support::{rhai_err, Rr};
 use super::crops::{largest_rect, load_rects, random_crops, Rect};
-use super::engine::{rhai_err, Rr};
 use crate::error::Error;
 use crate::loss::{self, Tensor};
 use rhai::{Array, Dynamic, Engine, Map};

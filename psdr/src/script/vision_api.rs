@@ -3,7 +3,7 @@
 //! `obs.classes()`, `obs.resized(long_side)` (the working size), `scene.match_photo(obs)` (the camera renders that photo's size and field of view), and
 //! `room_init(obs)` (the room box and camera as a scene).
 
-use super::engine::{rhai_err, Rr, RunRef};
+use super::api_support::{rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
 use crate::error::Error;
 use crate::loss::{Image, Tensor};
