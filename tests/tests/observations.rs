@@ -89,6 +89,42 @@ fn exif_orientation_is_applied() {
     assert!(p.data[0] > 0.5 && p.data[1] < 0.2, "top-left is the stored bottom-left (red): {:?}", &p.data[..3]);
 }
 
+/// A depth map given in the wrong units runs backwards on the floor (distance must rise towards the horizon):
+/// the rendered distances given as disparity, and their disparity given as metres, stop with the flag that fits;
+/// given rightly, the trend is recorded with the depth's source.
+#[test]
+fn depth_in_the_wrong_units_is_caught_on_the_floor() {
+    let dir = temp_dir("obs-depth-direction");
+    let (photo, f) = rendered_room(&dir);
+    let floor = {
+        let o = Observations::resolve(&ObservationInputs::new(&photo)).unwrap();
+        o.instances.unwrap().instances.iter().find(|i| i.class == "floor").unwrap().pixels
+    };
+    assert!(floor >= 200, "the check needs 200 floor pixels; the room shows {floor}");
+    let depth = dir.join("room.depth.exr");
+    let e = Observations::resolve(&ObservationInputs {
+        depth: Some(depth.clone()),
+        depth_units: DepthUnits::Disparity,
+        ..ObservationInputs::new(&photo)
+    })
+    .map(|_| ())
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("runs backwards for disparity") && e.contains("--depth-units metres"), "{e}");
+    let disparity: Vec<f32> = f.depth.iter().map(|&z| if z > 0.0 { 2.0 / z + 0.4 } else { 0.0 }).collect();
+    let inverse = dir.join("inverse.exr");
+    psdr::output::write_exr_channels(&inverse, 48, 36, &[("Z".into(), disparity)]).unwrap();
+    let given = |units| ObservationInputs {
+        depth: Some(inverse.clone()),
+        depth_units: units,
+        ..ObservationInputs::new(&photo)
+    };
+    let e = Observations::resolve(&given(DepthUnits::Metres)).map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("runs backwards for metres") && e.contains("--depth-units disparity"), "{e}");
+    let o = Observations::resolve(&given(DepthUnits::Disparity)).unwrap();
+    assert!(o.sources["depth"].contains("rises towards the horizon"), "{:?}", o.sources);
+}
+
 #[test]
 fn bad_observations_are_clear_errors() {
     let dir = temp_dir("obs-bad");

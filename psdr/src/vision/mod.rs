@@ -1,4 +1,5 @@
-//! Photo observations: the photo (`photo`, and where it clips: `clipping`), depth (`depth`), instance segmentation with classes (`masks`,
+//! Photo observations: the photo (`photo`, and where it clips: `clipping`), depth (`depth`, and whether it runs
+//! the way its units say: `depth_direction`), instance segmentation with classes (`masks`,
 //! `classes`), the field of view, and their resolution from flags and files beside the photo
 //! (`observations`), and estimators for what is not given: ONNX models for depth, segmentation and fov
 //! (`onnx_model` and one file per contract), the field of view from vanishing points (`line_segments`,
@@ -7,6 +8,7 @@
 mod classes;
 mod clipping;
 mod depth;
+mod depth_direction;
 mod line_segments;
 mod masks;
 mod observations;
@@ -22,6 +24,7 @@ mod working_size;
 pub use classes::{canonical_class, class_names, ClassKind, UNKNOWN_CLASS};
 pub use clipping::{clip_like_photo, is_low_dynamic_range, unclipped, CLIPPED_LINEAR};
 pub use depth::{load_depth, Depth, DepthUnits};
+pub use depth_direction::floor_depth_trend;
 pub use line_segments::{detect_segments, Segment, SegmentOptions};
 pub use masks::{load_instances, Instance, Instances};
 pub use observations::{ObservationInputs, Observations, DEFAULT_CAMERA_HEIGHT, DEFAULT_FOV_Y_DEG};

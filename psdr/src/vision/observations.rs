@@ -6,6 +6,7 @@
 //! stage needs but nothing supplies is an error that lists the ways to supply it. `write` is `psdr observe`.
 
 use super::depth::{load_depth, Depth, DepthUnits};
+use super::depth_direction::{floor_depth_trend, INVERTED_BELOW};
 use super::masks::{load_instances, Instances};
 use super::onnx_depth::estimate_depth;
 use super::onnx_fov::estimate_fov_onnx;
@@ -246,12 +247,39 @@ impl Observations {
             sources,
             warnings,
         };
+        obs.check_depth_direction()?;
         // A photo whose room the calibration cannot read keeps its relative depth; the reason is kept for
         // whoever asks for metric depth.
         if let Err(e) = obs.calibrate_depth(inputs.camera_height) {
             obs.warnings.push(format!("depth: could not be made metric: {e}"));
         }
         Ok(obs)
+    }
+
+    /// Stops on a depth map that runs against its units on the floor (`depth_direction`), naming the units
+    /// that fit it; the trend is kept in `sources` either way.
+    fn check_depth_direction(&mut self) -> Result<()> {
+        let (Some(depth), Some(inst)) = (&self.depth, &self.instances) else { return Ok(()) };
+        let floor: Vec<bool> = inst.class_mask("floor").into_iter().map(|v| v > 0.5).collect();
+        let Some(trend) = floor_depth_trend(&depth.image.data, depth.units, &floor, depth.image.width) else {
+            return Ok(());
+        };
+        let units = format!("{:?}", depth.units).to_lowercase();
+        if trend < INVERTED_BELOW {
+            let (flip, what) = match depth.units {
+                DepthUnits::Disparity => ("metres (or relative)", "larger values farther away"),
+                _ => ("disparity", "larger values nearer"),
+            };
+            return Err(Error::Invalid(format!(
+                "the depth of {} ({}) runs backwards for {units}: on the floor it falls towards the horizon (rank                  correlation {trend:.2}), so the map has {what}; give --depth-units {flip}",
+                self.photo_path.display(),
+                self.sources.get("depth").map_or("depth", String::as_str),
+            )));
+        }
+        let note =
+            format!("; on the floor it rises towards the horizon as {units} should (rank correlation {trend:.2})");
+        self.sources.entry("depth".into()).or_default().push_str(&note);
+        Ok(())
     }
 
     /// Relative depth to metres, when there is a floor (and walls) to find its shift on; otherwise it stays
