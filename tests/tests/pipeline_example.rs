@@ -120,4 +120,9 @@ fn the_example_photo_becomes_a_scene_close_to_its_truth() {
     assert!(html.contains(&format!("Emitters (lights and windows): {emitters}")), "emitter count");
     assert!(html.contains("Evaluation against the truth"));
     assert!(html.contains("image.rmse_rel_1_8"));
+    // The lights the fits removed (of the candidates on the ceiling grid, behind the camera and on the walls),
+    // each by name, in result.json and on the page.
+    let removed = result["recorded"]["lights_removed"].as_array().expect("lights_removed in result.json");
+    let first = removed[0]["removed"][0].as_str().unwrap();
+    assert!(html.contains("Lights the fit removed") && html.contains(first), "{removed:?}");
 }

@@ -1,6 +1,6 @@
 //! The top of `report.html`: the photo, the final render and their difference side by side, the evaluation
-//! against a truth when the run had one (`--set truth=...`), and the fitted emitters (lights, windows) with
-//! their radiances.
+//! against a truth when the run had one (`--set truth=...`), the fitted emitters (lights, windows) with
+//! their radiances, and the lights each fit removed (`lights_removed` in result.json).
 
 use super::html::ReportImage;
 use crate::loss::Image;
@@ -73,6 +73,22 @@ pub fn build_summary(out: &Path, photo: &Path, render: &Path, scene: &Scene, rec
         header: ["light", "radiance R", "G", "B"].map(String::from).to_vec(),
         rows: lights,
     });
+    if let Some(Value::Array(fits)) = recorded.get("lights_removed") {
+        let rows: Vec<Vec<String>> = fits
+            .iter()
+            .map(|f| {
+                let names: Vec<&str> =
+                    f["removed"].as_array().into_iter().flatten().filter_map(Value::as_str).collect();
+                let pct = |k: &str| f[k].as_f64().map_or("-".into(), |v| format!("{:.1} %", 100.0 * v));
+                vec![names.join(", "), f["candidates"].to_string(), pct("relative_rms_all"), pct("relative_rms_kept")]
+            })
+            .collect();
+        summary.tables.push(SummaryTable {
+            title: "Lights the fit removed (backward elimination)".into(),
+            header: ["removed", "of candidates", "error with all", "error with the rest"].map(String::from).to_vec(),
+            rows,
+        });
+    }
     summary
 }
 

@@ -80,7 +80,18 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
     out.insert("relative_rms".into(), Dynamic::from(f.relative_rms as f64));
     out.insert("luminance_ratio".into(), Dynamic::from(f.luminance_ratio as f64));
     let v = serde_json::to_value(&f).map_err(|e| Error::Invalid(e.to_string()))?;
-    run.borrow_mut().recorded.insert("light_fit".into(), v);
+    let mut run = run.borrow_mut();
+    run.recorded.insert("light_fit".into(), v);
+    // Every fit that removed lights is kept (later fits overwrite `light_fit`), for the report's light list.
+    let removed: Vec<&String> = f.names.iter().zip(&f.kept).filter(|(_, k)| !**k).map(|(n, _)| n).collect();
+    if !removed.is_empty() {
+        let entry = serde_json::json!({ "removed": removed, "candidates": f.names.len(),
+                                        "relative_rms_all": f.relative_rms_all, "relative_rms_kept": f.relative_rms });
+        match run.recorded.entry("lights_removed").or_insert_with(|| serde_json::json!([])) {
+            serde_json::Value::Array(list) => list.push(entry),
+            other => *other = serde_json::json!([entry]),
+        }
+    }
     Ok(out)
 }
 

@@ -60,7 +60,8 @@ pub(crate) fn downsample(data: &[f32], w: usize, h: usize, k: usize) -> (Vec<f32
 }
 
 /// The photo as the light fits compare it: box-downsampled by k, and per reduced pixel 1 where every photo
-/// pixel under it records the scene, 0 where one is clipped (`vision::unclipped`): those are left out.
+/// pixel under it records the scene, 0 where one is clipped (`vision::unclipped`): those are left out (unless
+/// nearly all are).
 pub(crate) struct FitTarget {
     pub values: Vec<f32>,
     pub weights: Vec<f32>,
@@ -72,7 +73,11 @@ impl FitTarget {
         let (values, _, _) = downsample(photo, w, h, k);
         let ones: Vec<f32> = crate::vision::unclipped(photo, w).iter().flat_map(|&u| [u; 3]).collect();
         let (covered, _, _) = downsample(&ones, w, h, k);
-        let weights = covered.chunks(3).map(|c| if c[0] > 1.0 - 1e-4 { 1.0 } else { 0.0 }).collect();
+        let mut weights: Vec<f32> = covered.chunks(3).map(|c| if c[0] > 1.0 - 1e-4 { 1.0 } else { 0.0 }).collect();
+        // A photo clipped nearly everywhere still gets a fit, from all of it, rather than none.
+        if weights.iter().sum::<f32>() < 0.01 * weights.len() as f32 {
+            weights.iter_mut().for_each(|w| *w = 1.0);
+        }
         FitTarget { values, weights }
     }
 
