@@ -116,6 +116,12 @@ fn the_example_photo_becomes_a_scene_close_to_its_truth() {
         assert!(html.contains(&format!("<figcaption>{label}</figcaption>")), "{label} missing");
         assert!(out.join("report").join(file).is_file(), "{file} missing");
     }
+    // Every stage shows its final render beside its difference from the photo (at the working size).
+    for stage in ["01_room", "02_objects", "03_lights", "04_materials"] {
+        let diff = out.join("stages").join(stage).join("difference.png");
+        assert!(diff.is_file(), "{} missing", diff.display());
+    }
+    assert_eq!(html.matches("<figcaption>|final - photo|</figcaption>").count(), 4, "one per stage");
     let emitters = e["lights"]["fitted"].as_u64().unwrap() + e["lights"]["fitted_windows"].as_u64().unwrap_or(0);
     assert!(html.contains(&format!("Emitters (lights and windows): {emitters}")), "emitter count");
     assert!(html.contains("Evaluation against the truth"));

@@ -6,4 +6,4 @@ mod html;
 mod summary;
 
 pub use html::{write_report, IterationRecord, OptimizationReport, ReportImage, RunReport, StageReport};
-pub use summary::{build_summary, Summary, SummaryTable};
+pub use summary::{build_summary, write_difference, Summary, SummaryTable};

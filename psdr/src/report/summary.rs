@@ -92,6 +92,16 @@ pub fn build_summary(out: &Path, photo: &Path, render: &Path, scene: &Scene, rec
     summary
 }
 
+/// Writes |render - photo| to `path` with the photo brought to the render's size (a working size of it);
+/// false when there is no photo at that size or the file cannot be written (a report without it, not an error).
+pub fn write_difference(photo: &Path, render: &Image, path: &Path) -> bool {
+    let Some(photo) = crate::vision::load_photo(photo).ok() else { return false };
+    let Some(photo) = crate::vision::photo_at(&photo, render.width, render.height) else { return false };
+    let Some(d) = difference(&photo, render) else { return false };
+    let small = shrink(&d);
+    crate::output::write_png_srgb(path, small.width as u32, small.height as u32, &small.data).is_ok()
+}
+
 /// At most LONG_SIDE pixels on the long side (an integer box filter).
 fn shrink(img: &Image) -> Image {
     let k = img.width.max(img.height).div_ceil(LONG_SIDE).max(1);

@@ -171,8 +171,13 @@ impl RunContext {
             Error::io(&path, format!("stage '{}': the scene does not read back as written: {e}", stage.name))
         })?;
         let preview = stage.dir.join("final.png");
-        self.preview(scene, &preview)?;
+        let render = self.preview(scene, &preview)?;
         stage.report.images.push(ReportImage { label: "final".into(), path: preview });
+        // Beside it, how far it is from the photo (at the stage's size): where the stage left the error.
+        let difference = stage.dir.join("difference.png");
+        if crate::report::write_difference(Path::new(&self.report.photo), &render, &difference) {
+            stage.report.images.push(ReportImage { label: "|final - photo|".into(), path: difference });
+        }
         stage.report.seconds = stage.started.elapsed().as_secs_f64();
         stage.report.status = "done".into();
         stage.report.phases = crate::progress::take_times();
@@ -197,14 +202,15 @@ impl RunContext {
         crate::progress::set_stage(None);
     }
 
-    /// Renders `scene` at the preview spp to a PNG (sRGB).
-    pub fn preview(&mut self, scene: &Scene, path: &Path) -> Result<()> {
+    /// Renders `scene` at the preview spp to a PNG (sRGB), and returns the render (linear RGB).
+    pub fn preview(&mut self, scene: &Scene, path: &Path) -> Result<crate::loss::Image> {
         let backend = self.backend.as_mut().ok_or_else(|| Error::Invalid("render inside a loss closure".into()))?;
         let mut settings = scene.settings.clone();
         settings.spp = self.options.preview_spp.max(1);
         let data = crate::render::SceneData::build(scene)?;
         let frame = backend.render(&data, &settings, &|_, _| {})?;
-        crate::output::write_png_srgb(path, frame.width, frame.height, &frame.radiance)
+        crate::output::write_png_srgb(path, frame.width, frame.height, &frame.radiance)?;
+        crate::loss::Image::new(frame.width as usize, frame.height as usize, 3, frame.radiance)
     }
 
     /// Where the current stage keeps its files (the output folder outside stages).

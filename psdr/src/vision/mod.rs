@@ -35,4 +35,4 @@ pub use onnx_model::{resize_bilinear, InputContract, ModelOutput, OnnxModel};
 pub use onnx_segmentation::{estimate_instances, ADE20K_CLASSES};
 pub use photo::load_photo;
 pub use vanishing_points::{estimate_fov, FovEstimate, FovFailure, VanishingOptions, VanishingPoint};
-pub use working_size::{working_size, WORKING_MULTIPLE};
+pub use working_size::{photo_at, working_size, WORKING_MULTIPLE};

@@ -153,6 +153,20 @@ fn ids_and_depth(
     (out_ids, out_depth)
 }
 
+/// The photo as the stages see it at `w` x `h` (a working size of it, or its own size): area-averaged over the
+/// working size's centred crop, as `Observations::resized` makes it; None when no working size of this photo
+/// is `w` x `h`.
+pub fn photo_at(photo: &Image, w: usize, h: usize) -> Option<Image> {
+    if (photo.width, photo.height) == (w, h) {
+        return Some(photo.clone());
+    }
+    let (ww, wh, crop) = working_size(photo.width, photo.height, w.max(h));
+    if (ww, wh) != (w, h) {
+        return None;
+    }
+    area_average(photo, &Footprint::new(crop, ww, wh), ww, wh).ok()
+}
+
 impl Observations {
     /// The observations at the working size for `long_side` (see the module); `long_side` 0, or a photo
     /// already at its working size, gives them unchanged.
