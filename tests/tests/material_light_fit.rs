@@ -40,3 +40,26 @@ fn known_geometry_wrong_materials_and_lights_converge_to_the_photo() {
         assert!(s["chosen"].is_null(), "{s}");
     }
 }
+
+/// A light scale searched over a range that stops short of the photo's (the test room above wants 1.1-1.6)
+/// ends at the range's end, and the report says the lights and albedos were not told apart there.
+#[test]
+fn a_light_scale_at_the_range_end_is_reported() {
+    let dir = psdr_tests::temp_dir("material-light-scale-edge");
+    let (truth, ids) = truth_room();
+    write_known_geometry(&dir, &truth, &ids);
+    let quick = [
+        "light_scale_low=0.5",
+        "light_scale_high=0.8",
+        "light_scale_steps=3",
+        "light_scale_rounds=1",
+        "material_iters=0",
+    ];
+    let result = run_on_known_geometry(&dir, &[&quick[..], &["texture_top_k=0", "material_light_step=0"]].concat());
+    let chosen = result["recorded"]["light_scale"]["chosen"].as_array().unwrap().clone();
+    assert!(chosen.iter().any(|c| c.as_f64().unwrap() > 0.799), "{chosen:?}");
+    let html = std::fs::read_to_string(dir.join("out/report.html")).unwrap();
+    assert!(
+        html.contains("ended at the searched range&#x27;s end") || html.contains("ended at the searched range's end")
+    );
+}

@@ -85,7 +85,25 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
     let (photo, segs) = segments("light_scale_search", scene, photo, map)?;
     let found = search_light_scale(&mut scene.0, &photo, &segs, &o)?;
     let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
-    run.borrow_mut().recorded.insert("light_scale".into(), v.clone());
+    let mut c = run.borrow_mut();
+    c.recorded.insert("light_scale".into(), v.clone());
+    // A scale at the range's end is where the search stopped, not a minimum: the photo did not separate the
+    // lights' brightness from the albedos there, and the report says so.
+    let (lo, hi) = o.range;
+    let edge: Vec<&str> = ["R", "G", "B"]
+        .into_iter()
+        .zip(found.chosen)
+        .filter(|(_, f)| *f <= lo * 1.001 || *f >= hi * 0.999)
+        .map(|(c, _)| c)
+        .collect();
+    if !edge.is_empty() && !found.factors.is_empty() {
+        c.report.notes.push(format!(
+            "light_scale_search: the scale of {} ended at the searched range's end ({lo}..{hi}); the photo did not \
+             tell the lights' brightness from the albedos there, so both may be off by that factor",
+            edge.join(", ")
+        ));
+    }
+    drop(c);
     rhai::serde::to_dynamic(v)
         .map_err(|e| Error::Invalid(e.to_string()))?
         .try_cast::<Map>()
