@@ -197,6 +197,9 @@ pub(crate) fn unit_render(scene: &Scene, light: usize, opts: &LightFitOptions) -
 
 /// Per channel, the non-negative least-squares radiances of the `active` basis images for `target` (its
 /// left-out pixels dropped): the radiances (zero for inactive ones) and the squared error summed over channels.
+/// The error also counts every left-out (clipped) pixel the fit leaves darker than the photo: a clipped value
+/// is a lower bound, so a window or lamp the photo shows must stay at least that bright where it shows (without
+/// this, the light placement shrank a visible window freely, its own pixels being all clipped).
 pub(crate) fn nnls_fit(basis: &[Vec<f32>], target: &FitTarget, active: &[usize]) -> (Vec<[f32; 3]>, f64) {
     let kept: Vec<usize> = (0..target.weights.len()).filter(|&p| target.weights[p] > 0.0).collect();
     let px = kept.len();
@@ -213,6 +216,10 @@ pub(crate) fn nnls_fit(basis: &[Vec<f32>], target: &FitTarget, active: &[usize])
         for p in 0..px {
             let model: f64 = active.iter().enumerate().map(|(k, _)| cols[k][p] * x[k]).sum();
             err += (model - b[p]).powi(2);
+        }
+        for p in (0..target.weights.len()).filter(|&p| target.weights[p] == 0.0) {
+            let model: f64 = active.iter().enumerate().map(|(k, &i)| basis[i][p * 3 + c] as f64 * x[k]).sum();
+            err += (target.values[p * 3 + c] as f64 - model).max(0.0).powi(2);
         }
     }
     (rad, err)
