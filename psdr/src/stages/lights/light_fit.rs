@@ -296,3 +296,24 @@ pub fn fit_lights(scene: &Scene, lights: &[String], photo: &[f32], opts: &LightF
         luminance_ratio: lum(&fitted) / lum(&target.values).max(1e-30),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clipped_pixels_bound_the_fit_from_below_only() {
+        // Two reduced pixels, grey: the first records the scene (0.5), the second is clipped (reads 1.0).
+        let target =
+            FitTarget { values: vec![0.5; 3].into_iter().chain(vec![1.0; 3]).collect(), weights: vec![1.0, 0.0] };
+        // A light that lights the first pixel 1.0 and the second 3.0 per unit radiance: the radiance comes from
+        // the recorded pixel alone (0.5), and the clipped one, rendered 1.5 >= 1, costs nothing.
+        let bright = vec![1.0, 1.0, 1.0, 3.0, 3.0, 3.0];
+        let (rad, err) = nnls_fit(&[bright], &target, &[0]);
+        assert!((rad[0][0] - 0.5).abs() < 1e-6 && err < 1e-12, "{rad:?} {err}");
+        // One that lights the clipped pixel only 1.0 per unit: rendered 0.5 there, 0.5 below the bound, per channel.
+        let dim = vec![1.0; 6];
+        let (_, err) = nnls_fit(&[dim], &target, &[0]);
+        assert!((err - 3.0 * 0.25).abs() < 1e-9, "{err}");
+    }
+}
