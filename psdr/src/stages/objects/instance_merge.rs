@@ -4,7 +4,7 @@
 //! image rows or columns run from one to the other across a single nearer instance only, with the depth on
 //! both sides of that occluder within `depth_tolerance` (relative) of each other: the surface goes on
 //! behind it. Two chairs side by side touch, or are parted by floor, and stay two. The crossing lines must
-//! also span a quarter of the smaller piece across them (`MIN_SPAN`): an occluder that cuts one object does
+//! also span a share of the smaller piece across them (`min_span`, a quarter in room.rhai): an occluder that cuts one object does
 //! so over its whole height (or width), while two chairs behind one table meet across it in a few rows only
 //! (a real room's two chairs were merged on 3 rows, each 30 high).
 
@@ -33,10 +33,6 @@ fn touching(inst: &Instances, a: u16, b: u16) -> bool {
                 || (p >= w && inst.ids[p - w] == b))
     })
 }
-
-/// Share of the smaller piece's extent (rows for row crossings, columns for column crossings) the crossing
-/// lines must span.
-const MIN_SPAN: f32 = 0.25;
 
 /// Rows and columns an instance spans (bounding box height and width), 0 for an absent one.
 fn extent(inst: &Instances, id: u16) -> (usize, usize) {
@@ -93,12 +89,14 @@ fn bridges(inst: &Instances, depth: &[f32], a: u16, b: u16, depth_tolerance: f32
     (rows, columns, occluder)
 }
 
-/// `inst` with split pieces merged, and what was merged.
+/// `inst` with split pieces merged, and what was merged. `min_span`: the share of the smaller piece's extent
+/// (rows for row crossings, columns for column crossings) the crossing lines must span.
 pub fn merge_split_instances(
     inst: &Instances,
     depth: &[f32],
     min_bridges: usize,
     depth_tolerance: f32,
+    min_span: f32,
 ) -> (Instances, Vec<MergedInstance>) {
     let mut out = inst.clone();
     let mut merges = vec![];
@@ -112,7 +110,7 @@ pub fn merge_split_instances(
                 }
                 let (rows, columns, occluder) = bridges(&out, depth, a.id, b.id, depth_tolerance);
                 let (ea, eb) = (extent(&out, a.id), extent(&out, b.id));
-                let need = |span: usize| min_bridges.max(1).max((MIN_SPAN * span as f32).ceil() as usize);
+                let need = |span: usize| min_bridges.max(1).max((min_span * span as f32).ceil() as usize);
                 let n = rows + columns;
                 if rows >= need(ea.0.min(eb.0)) || columns >= need(ea.1.min(eb.1)) {
                     let (into, merged) = if a.pixels >= b.pixels { (a, b) } else { (b, a) };
@@ -174,7 +172,7 @@ mod tests {
             (3, "sofa", [21, 20, 35, 32], 3.0),
             (4, "lamp", [18, 10, 21, 40], 2.0),
         ]);
-        let (merged, log) = merge_split_instances(&inst, &depth, 3, 0.1);
+        let (merged, log) = merge_split_instances(&inst, &depth, 3, 0.1, 0.25);
         assert_eq!(log.len(), 1, "{log:?}");
         assert_eq!(merged.instances.iter().filter(|i| i.class == "sofa").count(), 1);
         // Two chairs 8 wide, 24 high, 6 apart, with a table in front that overlaps both and fills the gap
@@ -186,7 +184,7 @@ mod tests {
         ]);
         // Without the span criterion these would merge: 4 rows cross the table top from one chair to the other.
         assert_eq!(bridges(&inst, &depth, 4, 5, 0.1).0, 4);
-        let (_, log) = merge_split_instances(&inst, &depth, 3, 0.1);
+        let (_, log) = merge_split_instances(&inst, &depth, 3, 0.1, 0.25);
         assert!(log.is_empty(), "{log:?}");
     }
 }

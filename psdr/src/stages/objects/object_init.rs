@@ -55,6 +55,8 @@ pub struct ObjectInitOptions {
     pub merge_bridges: usize,
     /// ... and the depths on both sides of the occluder agree within this fraction.
     pub merge_depth_tolerance: f32,
+    /// ...and span at least this share of the smaller piece across them.
+    pub merge_min_span: f32,
     /// Poses scoring within this of the best are told apart by the wall prior: an object standing against a
     /// wall turns its back to it (a cabinet turned round looks the same but for a handle under a pixel).
     pub wall_tie: f32,
@@ -76,6 +78,7 @@ impl Default for ObjectInitOptions {
             silhouette_weight: 1.0,
             merge_bridges: 3,
             merge_depth_tolerance: 0.1,
+            merge_min_span: 0.25,
             wall_tie: 0.02,
         }
     }
@@ -237,7 +240,7 @@ pub fn init_objects_with(
 ) -> (Vec<(ObjectPlacement, Object)>, Vec<SkippedInstance>) {
     // Split pieces first: one object, one model.
     let (merged_inst, merges) = if opts.merge_bridges > 0 {
-        merge_split_instances(inst, depth, opts.merge_bridges, opts.merge_depth_tolerance)
+        merge_split_instances(inst, depth, opts.merge_bridges, opts.merge_depth_tolerance, opts.merge_min_span)
     } else {
         (inst.clone(), vec![])
     };
