@@ -10,9 +10,11 @@
 //! farthest point seen that way (or 1.2x the highest point for the ceiling), stated, not guessed as exact.
 
 use glam::Vec3;
+use psdr::base::Intrinsics;
 use psdr::render::{render_cpu, Frame, SceneData};
 use psdr::scene::Scene;
-use psdr::stages::{calibrate_relative_depth, init_room, Intrinsics, RoomEstimate, RoomInitOptions};
+use psdr::stages::{init_room, RoomEstimate, RoomInitOptions};
+use psdr::vision::calibrate_relative_depth;
 use psdr::vision::DepthUnits;
 use psdr_tests::rooms::{furniture, room_scene, FurnitureBox, RoomSpec};
 use psdr_tests::SplitMix64;

@@ -7,7 +7,7 @@
 //! `cargo run -p psdr-benchmarks --release --bin bench_backends [-- OUT.csv]`
 
 use psdr::backend::{Backend, CpuBackend, VkBackend};
-use psdr::grad::{AovAdjoints, GradLayout, ParamPath, PoseLayout};
+use psdr::grad::{aovs_vjp_on, radiance_vjp_on, AovAdjoints, GradLayout, ParamPath, PoseLayout};
 use psdr::render::{Frame, SceneData};
 use psdr::scene::{load_scene, sphere_mesh, Object, Pose, Scene};
 use psdr::scene::{Color, Scalar};
@@ -56,11 +56,11 @@ fn adjoint_best_of(
     let layout = GradLayout::new(s, &params)?;
     let n = (s.camera.width * s.camera.height * 3) as usize;
     let adjoint: Vec<f32> = (0..n).map(|i| ((i * 7919 % 1000) as f32 / 1000.0 - 0.3) / n as f32).collect();
-    let mut grad = backend.radiance_vjp(d, &s.settings, &layout, &adjoint)?; // warm-up
+    let mut grad = radiance_vjp_on(backend, d, &s.settings, &layout, &adjoint)?; // warm-up
     let mut best = f64::INFINITY;
     for _ in 0..reps {
         let t = Instant::now();
-        grad = backend.radiance_vjp(d, &s.settings, &layout, &adjoint)?;
+        grad = radiance_vjp_on(backend, d, &s.settings, &layout, &adjoint)?;
         best = best.min(t.elapsed().as_secs_f64());
     }
     Ok((best, grad))
@@ -111,11 +111,11 @@ fn aov_adjoint_best_of(
     let (table, chair) = (s.object_index("table").unwrap_or(0), s.object_index("chair").unwrap_or(0));
     let masks = [(table, mask_t.as_slice()), (chair, mask_c.as_slice())];
     let adjoints = AovAdjoints { depth: Some(&depth), masks: &masks };
-    let mut grad = backend.aovs_vjp(s, d, &s.settings, &pose, &adjoints, AOV_EDGE_SAMPLES)?; // warm-up
+    let mut grad = aovs_vjp_on(backend, s, d, &s.settings, &pose, &adjoints, AOV_EDGE_SAMPLES)?; // warm-up
     let mut best = f64::INFINITY;
     for _ in 0..reps {
         let t = Instant::now();
-        grad = backend.aovs_vjp(s, d, &s.settings, &pose, &adjoints, AOV_EDGE_SAMPLES)?;
+        grad = aovs_vjp_on(backend, s, d, &s.settings, &pose, &adjoints, AOV_EDGE_SAMPLES)?;
         best = best.min(t.elapsed().as_secs_f64());
     }
     Ok((best, grad))

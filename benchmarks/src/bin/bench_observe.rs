@@ -10,10 +10,12 @@
 //! `cargo run -p psdr-benchmarks --release --bin bench_observe [-- --views N]`.
 
 use glam::Vec3;
+use psdr::base::Intrinsics;
 use psdr::loss::Image;
 use psdr::render::{render_cpu, SceneData};
 use psdr::report::chart::{grid, Point, Series, XyChart};
-use psdr::stages::{calibrate_relative_depth, init_room, Intrinsics, RoomInitOptions};
+use psdr::stages::{init_room, RoomInitOptions};
+use psdr::vision::calibrate_relative_depth;
 use psdr::vision::{estimate_fov, DepthUnits, VanishingOptions};
 use psdr_tests::rooms::{furniture, room_scene, RoomSpec};
 use psdr_tests::SplitMix64;

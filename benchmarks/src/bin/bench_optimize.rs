@@ -6,9 +6,9 @@
 use anyhow::Context;
 use psdr::backend::CpuBackend;
 use psdr::loss::{self, Tensor};
+use psdr::optim::IterationRecord;
 use psdr::optim::{optimize, OptimizeOptions, ParamSpec, Rendered};
 use psdr::report::chart::BarChart;
-use psdr::report::IterationRecord;
 use psdr::scene::{load_scene, Scene};
 use psdr::script::{run_script, RunOptions, ScriptRun};
 use std::path::{Path, PathBuf};

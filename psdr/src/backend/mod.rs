@@ -1,5 +1,8 @@
 //! One interface over the CPU reference and the Vulkan backend, so every stage runs on either: the primal render
-//! and the adjoint passes.
+//! and the adjoint kernels a device offers. Each gradient method answers `None` for what the device's kernels do
+//! not cover (the CPU backend covers none: its gradients are grad's reference terms); grad's orchestration
+//! (`grad::radiance_vjp_on` and its kin) chooses the device's answer or the CPU term. This module uses only
+//! grad's public term API (its layouts, adjoint types and the host-side pieces the kernels share).
 
 mod cpu_backend;
 mod vk_adjoint;
@@ -14,8 +17,7 @@ pub use vk_adjoint::{AdjointParams, MAX_RECORD_DEPTH};
 pub use vk_backend::{layout_check_spirv, VkBackend, SHADER_DIR_ENV};
 
 use crate::error::{Error, Result};
-use crate::grad::GradLayout;
-use crate::grad::{AovAdjoints, PixelwiseAdjoint, PoseLayout};
+use crate::grad::{AovAdjoints, GradLayout, PixelwiseAdjoint, PoseLayout};
 use crate::render::{Frame, SceneData};
 use crate::scene::{RenderSettings, Scene};
 
@@ -27,61 +29,60 @@ pub trait Backend {
     fn name(&self) -> String;
     /// Renders radiance and all AOVs of `data` with `settings`.
     fn render(&mut self, data: &SceneData, settings: &RenderSettings, progress: Progress) -> Result<Frame>;
-    /// dLoss/dθ of the material and light parameters of `layout` given dLoss/d(radiance) (`grad::radiance_vjp`,
-    /// the interior term). A device computes what its kernels cover and leaves the rest to the CPU reference.
+    /// dLoss/dθ of the material and light parameters of `layout` given dLoss/d(radiance) (the interior term,
+    /// twin of `grad::radiance_vjp`) on the device, or `None` where its kernels do not cover the layout (the
+    /// default: `grad::radiance_vjp_on` then runs the CPU reference).
     fn radiance_vjp(
         &mut self,
-        data: &SceneData,
-        settings: &RenderSettings,
-        layout: &GradLayout,
-        adjoint: &[f32],
-    ) -> Result<Vec<f64>> {
-        crate::grad::radiance_vjp(data, settings, layout, adjoint)
+        _data: &SceneData,
+        _settings: &RenderSettings,
+        _layout: &GradLayout,
+        _adjoint: &[f32],
+    ) -> Result<Option<Vec<f64>>> {
+        Ok(None)
     }
     /// The fused estimator of an L2 radiance loss's gradient w.r.t. the material and light parameters of
-    /// `layout` (`grad::radiance_vjp_cross`): the gradient and the rendered image. A device computes what its
-    /// kernels cover and leaves the rest to the CPU reference.
+    /// `layout` and the rendered image (twin of `grad::radiance_vjp_cross`) on the device, or `None` where its
+    /// kernels do not cover the layout.
     fn radiance_vjp_cross(
         &mut self,
-        data: &SceneData,
-        settings: &RenderSettings,
-        layout: &GradLayout,
-        adjoint: &PixelwiseAdjoint,
-        seed_b: u32,
-    ) -> Result<(Vec<f64>, Vec<f32>)> {
-        crate::grad::radiance_vjp_cross(data, settings, layout, adjoint, seed_b)
+        _data: &SceneData,
+        _settings: &RenderSettings,
+        _layout: &GradLayout,
+        _adjoint: &PixelwiseAdjoint,
+        _seed_b: u32,
+    ) -> Result<Option<(Vec<f64>, Vec<f32>)>> {
+        Ok(None)
     }
-    /// dLoss/dθ of the pose entries of `pose` given the adjoints of depth and masks (`grad::aovs_vjp`: the depth
-    /// interior and the silhouette boundary with `edge_samples` samples). A device computes what its kernels
-    /// cover and leaves the rest to the CPU reference.
+    /// dLoss/dθ of the pose entries of `pose` given the adjoints of depth and masks (twin of `grad::aovs_vjp`:
+    /// the depth interior and the silhouette boundary with `edge_samples` samples) on the device, or `None`.
     fn aovs_vjp(
         &mut self,
-        scene: &Scene,
-        data: &SceneData,
-        settings: &RenderSettings,
-        pose: &PoseLayout,
-        adjoints: &AovAdjoints,
-        edge_samples: u32,
-    ) -> Result<Vec<f64>> {
-        crate::grad::aovs_vjp(scene, data, settings, pose, adjoints, edge_samples)
+        _scene: &Scene,
+        _data: &SceneData,
+        _settings: &RenderSettings,
+        _pose: &PoseLayout,
+        _adjoints: &AovAdjoints,
+        _edge_samples: u32,
+    ) -> Result<Option<Vec<f64>>> {
+        Ok(None)
     }
-    /// The primary boundary term of radiance for the pose entries of `pose` given dLoss/d(radiance)
-    /// (`grad::radiance_primary_boundary`, `edge_samples` silhouette and crease samples). A device computes
-    /// what its kernels cover and leaves the rest to the CPU reference.
+    /// The primary boundary term of radiance for the pose entries of `pose` given dLoss/d(radiance) (twin of
+    /// `grad::radiance_primary_boundary`, `edge_samples` silhouette and crease samples) on the device, or `None`.
     fn radiance_primary_boundary(
         &mut self,
-        scene: &Scene,
-        data: &SceneData,
-        settings: &RenderSettings,
-        pose: &PoseLayout,
-        adjoint: &[f32],
-        edge_samples: u32,
-    ) -> Result<Vec<f64>> {
-        Ok(crate::grad::radiance_primary_boundary(scene, data, settings, pose, adjoint, edge_samples))
+        _scene: &Scene,
+        _data: &SceneData,
+        _settings: &RenderSettings,
+        _pose: &PoseLayout,
+        _adjoint: &[f32],
+        _edge_samples: u32,
+    ) -> Result<Option<Vec<f64>>> {
+        Ok(None)
     }
     /// The ray-form interior term of radiance for the pose entries of `pose`, with the secondary boundary when
-    /// `secondary_samples` > 0, on a device; or `None` to have `grad::radiance_pose_vjp` compute them on the CPU
-    /// (the default, and a device's answer where its kernels do not cover the entries).
+    /// `secondary_samples` > 0, on the device; or `None` to have `grad::radiance_pose_vjp` compute them on the
+    /// CPU (the default, and a device's answer where its kernels do not cover the entries).
     fn radiance_pose_interior(
         &mut self,
         _scene: &Scene,

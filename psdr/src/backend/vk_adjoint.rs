@@ -9,8 +9,7 @@
 
 use super::vk_backend::{backend_error, upload, upload_scene, VkBackend};
 use crate::error::{Error, Result};
-use crate::grad::interior::material_light::{normal_read_adjoint, texture_read_adjoint};
-use crate::grad::{DeviceSlots, GradLayout, PixelwiseAdjoint};
+use crate::grad::{normal_read_adjoint, texture_read_adjoint, DeviceSlots, GradLayout, PixelwiseAdjoint};
 use crate::render::cpu::frame_params;
 use crate::render::layout::{FrameParams, NONE};
 use crate::render::SceneData;

@@ -5,10 +5,11 @@
 
 use super::{check_settings, Backend, Progress};
 use crate::error::{Error, Result};
+use crate::grad::{AovAdjoints, GradLayout, PixelwiseAdjoint, PoseLayout};
 use crate::render::cpu::frame_params;
 use crate::render::layout::{CameraGpu, FrameParams};
 use crate::render::{Frame, SceneData};
-use crate::scene::RenderSettings;
+use crate::scene::{RenderSettings, Scene};
 use psdr_vk::{Buffer, Context, ContextOptions, Groups, Kernel, StorageBinding};
 use std::path::{Path, PathBuf};
 
@@ -165,75 +166,60 @@ pub(super) fn upload<T: bytemuck::Pod>(ctx: &Context, name: &str, data: &[T]) ->
 }
 
 impl Backend for VkBackend {
-    /// On the device where the adjoint kernel covers the layout (`GradLayout::device_slots`: everything but
-    /// normal maps), else the CPU reference.
+    /// Where the adjoint kernel covers the layout (`GradLayout::device_slots`: everything but normal maps).
     fn radiance_vjp(
         &mut self,
         data: &SceneData,
         settings: &RenderSettings,
-        layout: &crate::grad::GradLayout,
+        layout: &GradLayout,
         adjoint: &[f32],
-    ) -> Result<Vec<f64>> {
-        match self.radiance_vjp_on_device(data, settings, layout, adjoint)? {
-            Some(g) => Ok(g),
-            None => crate::grad::radiance_vjp(data, settings, layout, adjoint),
-        }
+    ) -> Result<Option<Vec<f64>>> {
+        self.radiance_vjp_on_device(data, settings, layout, adjoint)
     }
 
-    /// On the device where the sweep kernel covers the layout, else the CPU reference.
+    /// Where the sweep kernel covers the layout.
     fn radiance_vjp_cross(
         &mut self,
         data: &SceneData,
         settings: &RenderSettings,
-        layout: &crate::grad::GradLayout,
-        adjoint: &crate::grad::PixelwiseAdjoint,
+        layout: &GradLayout,
+        adjoint: &PixelwiseAdjoint,
         seed_b: u32,
-    ) -> Result<(Vec<f64>, Vec<f32>)> {
-        match self.radiance_vjp_cross_on_device(data, settings, layout, adjoint, seed_b)? {
-            Some(r) => Ok(r),
-            None => crate::grad::radiance_vjp_cross(data, settings, layout, adjoint, seed_b),
-        }
+    ) -> Result<Option<(Vec<f64>, Vec<f32>)>> {
+        self.radiance_vjp_cross_on_device(data, settings, layout, adjoint, seed_b)
     }
 
-    /// On the device.
     fn aovs_vjp(
         &mut self,
-        scene: &crate::scene::Scene,
+        scene: &Scene,
         data: &SceneData,
         settings: &RenderSettings,
-        pose: &crate::grad::PoseLayout,
-        adjoints: &crate::grad::AovAdjoints,
+        pose: &PoseLayout,
+        adjoints: &AovAdjoints,
         edge_samples: u32,
-    ) -> Result<Vec<f64>> {
-        match self.aovs_vjp_on_device(scene, data, settings, pose, adjoints, edge_samples)? {
-            Some(g) => Ok(g),
-            None => crate::grad::aovs_vjp(scene, data, settings, pose, adjoints, edge_samples),
-        }
+    ) -> Result<Option<Vec<f64>>> {
+        self.aovs_vjp_on_device(scene, data, settings, pose, adjoints, edge_samples)
     }
 
-    /// On the device.
     fn radiance_primary_boundary(
         &mut self,
-        scene: &crate::scene::Scene,
+        scene: &Scene,
         data: &SceneData,
         settings: &RenderSettings,
-        pose: &crate::grad::PoseLayout,
+        pose: &PoseLayout,
         adjoint: &[f32],
         edge_samples: u32,
-    ) -> Result<Vec<f64>> {
-        match self.radiance_primary_on_device(scene, data, settings, pose, adjoint, edge_samples)? {
-            Some(g) => Ok(g),
-            None => Ok(crate::grad::radiance_primary_boundary(scene, data, settings, pose, adjoint, edge_samples)),
-        }
+    ) -> Result<Option<Vec<f64>>> {
+        self.radiance_primary_on_device(scene, data, settings, pose, adjoint, edge_samples)
     }
 
-    /// On the device, with the secondary term where its kernel covers the entries (`None`: the CPU).
+    /// With the secondary term where its kernel covers the entries.
     fn radiance_pose_interior(
         &mut self,
-        scene: &crate::scene::Scene,
+        scene: &Scene,
         data: &SceneData,
         settings: &RenderSettings,
-        pose: &crate::grad::PoseLayout,
+        pose: &PoseLayout,
         adjoint: &[f32],
         secondary_samples: u32,
     ) -> Result<Option<Vec<f64>>> {

@@ -2,8 +2,7 @@
 //! velocity fields and vertex blocks, the corners' welded ids, and the silhouette edges `PrimaryEdges::build`
 //! chose, as words.
 
-use crate::grad::boundary::primary::PrimaryEdges;
-use crate::grad::PoseLayout;
+use crate::grad::{PoseLayout, PrimaryEdges};
 use crate::render::SceneData;
 use glam::Vec3;
 

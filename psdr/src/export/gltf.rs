@@ -61,7 +61,7 @@ impl Bin {
 /// A texture as PNG bytes (colour textures sRGB-encoded, data linear).
 fn png(t: &Texture, srgb: bool) -> Result<Vec<u8>> {
     let enc = |v: f32| {
-        let v = if srgb { crate::scene::texture_linear_to_srgb(v.clamp(0.0, 1.0)) } else { v.clamp(0.0, 1.0) };
+        let v = if srgb { crate::base::linear_to_srgb(v.clamp(0.0, 1.0)) } else { v.clamp(0.0, 1.0) };
         (v * 255.0 + 0.5) as u8
     };
     let rgb: Vec<u8> = (0..(t.width * t.height) as usize)

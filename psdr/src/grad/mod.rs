@@ -19,11 +19,11 @@
 //! path recorder and the velocity fields of geometric parameters (path/).
 
 mod ad;
-pub(crate) mod boundary;
+mod boundary;
 mod estimate;
-pub(crate) mod interior;
+mod interior;
 mod path;
-pub(crate) mod vjp;
+mod vjp;
 
 pub use crate::scene::{ParamPath, TextureSlot};
 pub use ad::bsdf_grad::{bsdf_eval_grad, BsdfGrad};
@@ -35,8 +35,16 @@ pub use interior::fused_l2::radiance_vjp_cross;
 pub use interior::material_light::{radiance_vjp, DeviceSlots, GradLayout};
 pub use path::velocity::{PoseComponent, PoseLayout};
 pub use vjp::aov::{aov_vjp, aovs_vjp, AovAdjoints};
+pub use vjp::device_or_cpu::{aovs_vjp_on, radiance_primary_boundary_on, radiance_vjp_cross_on, radiance_vjp_on};
 pub use vjp::outputs::{in_param_order, moves_geometry, outputs_vjp, OutputAdjoints};
 pub use vjp::radiance_pose::{radiance_pose_vjp, radiance_primary_boundary, BoundarySamples};
+
+// The host-side pieces the Vulkan kernels share with the CPU terms (the term API `backend` uses): the edge
+// lists the boundary kernels sample, each object's mask adjoint, and the texture and normal-map reads' adjoints
+// the host finishes in the CPU's order.
+pub use boundary::secondary::SecondaryEdges;
+pub use interior::material_light::{normal_read_adjoint, texture_read_adjoint};
+pub use vjp::aov::masks_by_object;
 
 /// Blocks a parallel gradient accumulation is split into: fixed (the sum's order, hence its rounding, never
 /// depends on the thread count) and few (each holds a full gradient vector, and vertex gradients of a large

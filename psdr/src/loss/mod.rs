@@ -3,12 +3,11 @@
 //! tape's backward pass yields d loss / d(every rendered output the loss read), which the renderer's adjoint
 //! (`grad::outputs_vjp`) turns into parameter gradients.
 
-mod image;
 mod ops;
 mod tape;
 #[cfg(test)]
 mod tests;
 
-pub use image::Image;
+pub use crate::base::Image;
 pub use ops::*;
 pub use tape::{Gradients, Tape, Tensor};

@@ -1,7 +1,7 @@
 //! The tape: ops whose inputs include rendered outputs are recorded here with their backward passes; one
 //! reverse sweep from a scalar loss gives d loss / d(every rendered output the loss read).
 
-use super::image::Image;
+use crate::base::Image;
 use crate::error::{Error, Result};
 use std::cell::RefCell;
 use std::rc::Rc;

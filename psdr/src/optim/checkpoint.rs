@@ -4,7 +4,7 @@
 use super::adam::AdamState;
 use super::parametrization::ParamSpec;
 use crate::error::{Error, Result};
-use crate::report::IterationRecord;
+use crate::optim::IterationRecord;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 

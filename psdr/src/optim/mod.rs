@@ -6,6 +6,7 @@ mod adam;
 mod checkpoint;
 mod optimize;
 mod parametrization;
+mod record;
 mod rendered;
 mod select;
 
@@ -13,5 +14,6 @@ pub use adam::{AdamConfig, AdamState};
 pub use checkpoint::{BestState, Checkpoint, CHECKPOINT_FORMAT};
 pub use optimize::{gradient, optimize, Evaluation, LossFn, OptimizeOptions, OptimizeOutcome};
 pub use parametrization::{defaults, ParamSpec, Schedule, Space};
+pub use record::IterationRecord;
 pub use rendered::Rendered;
 pub use select::{glob_match, scene_parameters, select};

@@ -14,7 +14,7 @@ use crate::grad::{
     ADJOINT_SEED_OFFSET,
 };
 use crate::loss::{self, Tensor};
-use crate::report::IterationRecord;
+use crate::optim::IterationRecord;
 use crate::scene::{RenderSettings, Scene};
 use std::path::PathBuf;
 use std::rc::Rc;
@@ -214,7 +214,7 @@ fn evaluate(
             let layout = GradLayout::new(scene, paths)?;
             let px = PixelwiseAdjoint { target: &target, scale };
             let seed_b = settings.seed.wrapping_add(ADJOINT_SEED_OFFSET);
-            let (g, image) = backend.radiance_vjp_cross(data, &settings, &layout, &px, seed_b)?;
+            let (g, image) = crate::grad::radiance_vjp_cross_on(backend, data, &settings, &layout, &px, seed_b)?;
             let t_render = t0.elapsed().as_secs_f64();
             let t1 = Instant::now();
             let r = Rc::new(Rendered::radiance_only(scene.camera.width, scene.camera.height, image, names.clone()));

@@ -5,5 +5,5 @@ pub mod chart;
 mod html;
 mod summary;
 
-pub use html::{write_report, IterationRecord, OptimizationReport, ReportImage, RunReport, StageReport};
+pub use html::{write_report, OptimizationReport, ReportImage, RunReport, StageReport};
 pub use summary::{build_summary, write_difference, Summary, SummaryTable};

@@ -3,7 +3,7 @@
 //! their radiances, and the lights each fit removed (`lights_removed` in result.json).
 
 use super::html::ReportImage;
-use crate::loss::Image;
+use crate::base::Image;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};

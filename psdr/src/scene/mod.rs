@@ -36,7 +36,8 @@ pub use save::save_scene;
 pub use unseen_triangles::{drop_unseen_triangles, UnseenTriangles};
 pub use weld::{weld, Welding};
 
-pub use texture::{linear_to_srgb as texture_linear_to_srgb, srgb_to_linear, Texture, TextureEncoding};
+pub use crate::base::{linear_to_srgb as texture_linear_to_srgb, srgb_to_linear};
+pub use texture::{Texture, TextureEncoding};
 
 use std::path::PathBuf;
 

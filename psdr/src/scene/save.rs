@@ -7,8 +7,8 @@
 use super::file::*;
 use super::obj_write::obj_text;
 use super::{Color, Scalar, Scene};
+use crate::base::{write_atomically, write_exr_channels};
 use crate::error::{Error, Result};
-use crate::output::{write_atomically, write_exr_channels};
 use glam::Vec3;
 use std::collections::BTreeMap;
 use std::path::Path;

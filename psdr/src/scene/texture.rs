@@ -1,5 +1,6 @@
 //! Textures, stored as linear f32 texels (row 0 = top of the image), 1 or 3 channels.
 
+use crate::base::srgb_to_linear;
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -21,30 +22,13 @@ pub struct Texture {
     pub texels: Vec<f32>,
 }
 
-pub fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
-
-pub fn linear_to_srgb(c: f32) -> f32 {
-    let c = c.max(0.0);
-    if c <= 0.0031308 {
-        c * 12.92
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    }
-}
-
 impl Texture {
     /// Loads PNG/JPG (8/16-bit; colour decoded per `encoding`) or EXR (always linear).
     /// `channels` is 3 for colour parameters and 1 for scalar ones.
     pub fn load(path: &Path, encoding: TextureEncoding, channels: u32) -> Result<Texture> {
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         let (width, height, rgb) = if ext == "exr" {
-            crate::output::read_exr_rgb(path)?
+            crate::base::read_exr_rgb(path)?
         } else {
             let img = image::open(path).map_err(|e| Error::io(path, e))?;
             let rgb = img.to_rgb32f();

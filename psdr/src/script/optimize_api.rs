@@ -249,7 +249,7 @@ fn run_optimize(ctx: &NativeCallContext, run: &RunRef, scene: &mut Scene, opts: 
     let mut backend = take_backend(run, "optimize")?;
     let mut call = |r: Rc<Rendered>| loss.call(ctx, r);
     let progress = crate::progress::activity(label.clone(), Some(o.iters));
-    let mut observe = |r: &crate::report::IterationRecord| {
+    let mut observe = |r: &crate::optim::IterationRecord| {
         progress.set(r.iteration + 1, Some(format!("loss {:.4e}", r.loss)));
     };
     let outcome = optimize(scene, &specs, &mut call, &o, backend.as_mut(), &mut observe);

@@ -49,7 +49,7 @@ pub fn read_image(path: &Path) -> Result<Image> {
     }
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let (w, h, data) = if ext == "exr" {
-        crate::output::read_exr_rgb(path)?
+        crate::base::read_exr_rgb(path)?
     } else {
         let img = image::open(path).map_err(|e| Error::io(path, e))?.to_rgb32f();
         let (w, h) = img.dimensions();

@@ -5,9 +5,10 @@
 
 use super::api_support::{rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
+use crate::base::Intrinsics;
 use crate::error::Error;
 use crate::loss::{Image, Tensor};
-use crate::stages::{init_room, room_scene, Intrinsics, RoomInitOptions};
+use crate::stages::{init_room, room_scene, RoomInitOptions};
 use crate::vision::{ObservationInputs, Observations};
 use rhai::{Array, Dynamic, Engine, Map};
 use std::cell::RefCell;

@@ -257,7 +257,7 @@ pub fn albedo_errors(truth: &Scene, fitted_frame: &Frame, truth_frame: &Frame) -
 fn texture_error(fitted: &Frame, truth: &Frame, mask: &[bool]) -> Option<f32> {
     let (w, h) = (truth.width as usize, truth.height as usize);
     let m = Image::new(w, h, 1, mask.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect()).ok()?;
-    let r = crate::script::squarest_rect(&m).ok()??;
+    let r = crate::base::squarest_rect(&m).ok()??;
     if r.w.min(r.h) < crate::loss::MIN_CROP {
         return None;
     }

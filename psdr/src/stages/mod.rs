@@ -1,19 +1,16 @@
 //! Pipeline stages (PSDR-Room's Method), the parts scripts call, in the order `scripts/room.rhai` runs them:
 //! `room` (the box and camera from depth and segmentation), `objects` (retrieval and placement), `lights`
 //! (candidates, radiance fit, placement), `materials` (albedo division, the light scale, procedural textures),
-//! and `evaluation` (a fitted scene's errors against a ground truth); `geometry` holds what the room and
-//! object stages share (points from depth, robust planes). Each folder's mod.rs maps its files.
+//! and `evaluation` (a fitted scene's errors against a ground truth). Each folder's mod.rs maps its files; what
+//! the stages share with other layers (points from depth, robust planes, rectangles) is in `base`.
 
 mod evaluation;
-mod geometry;
 mod lights;
 mod materials;
 mod objects;
 mod room;
 
 pub use evaluation::{evaluate, mask_ious, relative_rmse_downsampled, room_in_camera_frame, ssim_luminance, Merged};
-pub use geometry::{erode, surface_points, Intrinsics, SurfacePoint};
-pub use geometry::{fit_plane, fit_plane_in_depth, ransac_plane, symmetric_eigen, Plane};
 pub use lights::add_visible_windows;
 pub use lights::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use lights::{init_lights, LightInitOptions};
@@ -32,6 +29,5 @@ pub use objects::{
     SkippedInstance,
 };
 pub use objects::{merge_split_instances, MergedInstance};
-pub use room::{calibrate_relative_depth, DepthCalibration};
 pub use room::{init_room, RoomEstimate, RoomInitOptions};
 pub use room::{room_scene, room_summary, ROOM_SURFACES};

@@ -1,12 +1,12 @@
 //! Depth observations: camera-space z per pixel, from an EXR (its `Z`, `depth`, `Y` or only channel, else R)
 //! or a 16-bit PNG (metres: millimetres stored; relative or disparity: 0..65535 mapped to 0..1). Metric depth
 //! fixes the scene's scale; relative depth or disparity (unknown scale and shift, as monocular estimators give)
-//! only its shape, once the shift is found (`stages::calibrate_relative_depth`).
+//! only its shape, once the shift is found (`calibrate_relative_depth` in depth_calibration.rs).
 //! Pixels without depth are 0 (or negative, or infinite: sensors write those); NaN is an error, because it
 //! means a broken file rather than a missing measurement.
 
+use crate::base::Image;
 use crate::error::{Error, Result};
-use crate::loss::Image;
 use std::path::Path;
 
 /// What the depth values mean.

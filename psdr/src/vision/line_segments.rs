@@ -2,7 +2,7 @@
 //! one orientation (region growing, as LSD does), each region's principal axis its segment. Regions that are not
 //! long and thin are dropped.
 
-use crate::loss::Image;
+use crate::base::Image;
 
 /// A segment in pixel coordinates (x right, y down; pixel centres at +0.5), with the summed gradient
 /// magnitude of its pixels as a strength.
@@ -47,7 +47,7 @@ fn grey(photo: &Image) -> Vec<f32> {
             } else {
                 photo.data[p * c]
             };
-            crate::scene::texture_linear_to_srgb(v.clamp(0.0, 1.0))
+            crate::base::linear_to_srgb(v.clamp(0.0, 1.0))
         })
         .collect();
     let at = |x: isize, y: isize| lum[(y.clamp(0, h as isize - 1) as usize) * w + x.clamp(0, w as isize - 1) as usize];

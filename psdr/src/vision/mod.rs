@@ -8,6 +8,7 @@
 mod classes;
 mod clipping;
 mod depth;
+mod depth_calibration;
 mod depth_direction;
 mod line_segments;
 mod masks;
@@ -24,6 +25,7 @@ mod working_size;
 pub use classes::{canonical_class, class_names, ClassKind, UNKNOWN_CLASS};
 pub use clipping::{clip_like_photo, is_low_dynamic_range, unclipped, CLIPPED_LINEAR};
 pub use depth::{load_depth, Depth, DepthUnits};
+pub use depth_calibration::{calibrate_relative_depth, DepthCalibration};
 pub use depth_direction::floor_depth_trend;
 pub use line_segments::{detect_segments, Segment, SegmentOptions};
 pub use masks::{load_instances, Instance, Instances};

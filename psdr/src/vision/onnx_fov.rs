@@ -4,8 +4,8 @@
 //! node (vertical fov = 2 atan(H / 2f)).
 
 use super::onnx_model::OnnxModel;
+use crate::base::Image;
 use crate::error::{Error, Result};
-use crate::loss::Image;
 
 pub fn estimate_fov_onnx(model: &mut OnnxModel, photo: &Image) -> Result<f32> {
     let out = model.run(photo)?;

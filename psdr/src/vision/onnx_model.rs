@@ -12,8 +12,8 @@
 //! `libonnxruntime.so*` in the models folder, else the one inside a pip-installed `onnxruntime` package
 //! (python3's, or the virtual environment ~/.cache/psdr-venv that `.ci/install-deps` makes).
 
+use crate::base::Image;
 use crate::error::{Error, Result};
-use crate::loss::Image;
 use ort::session::Session;
 use ort::value::{Tensor, TensorElementType, ValueType};
 use std::path::{Path, PathBuf};
@@ -156,8 +156,7 @@ impl OnnxModel {
     /// Runs the model on the photo (linear RGB) by the input contract; returns the first output.
     pub fn run(&mut self, photo: &Image) -> Result<ModelOutput> {
         let (w, h) = self.input_size(photo);
-        let srgb: Vec<f32> =
-            photo.data.iter().map(|v| crate::scene::texture_linear_to_srgb(v.clamp(0.0, 1.0))).collect();
+        let srgb: Vec<f32> = photo.data.iter().map(|v| crate::base::linear_to_srgb(v.clamp(0.0, 1.0))).collect();
         let resized = resize_bilinear(&srgb, photo.width, photo.height, photo.channels, w, h);
         let mut pixels = vec![0.0f32; 3 * w * h];
         for c in 0..3 {

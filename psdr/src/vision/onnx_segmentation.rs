@@ -13,8 +13,8 @@
 use super::classes::{canonical_class, ClassKind};
 use super::masks::{Instance, Instances};
 use super::onnx_model::OnnxModel;
+use crate::base::Image;
 use crate::error::{Error, Result};
-use crate::loss::Image;
 
 /// ADE20K-150 class names, 0-based.
 pub const ADE20K_CLASSES: [&str; 150] = [

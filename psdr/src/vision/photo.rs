@@ -1,8 +1,8 @@
 //! The photo: PNG, JPEG or EXR, EXIF orientation applied (phones store portrait shots rotated), sRGB decoded
 //! to linear RGB (EXR is linear already).
 
+use crate::base::Image;
 use crate::error::{Error, Result};
-use crate::loss::Image;
 use crate::scene::srgb_to_linear;
 use image::ImageDecoder;
 use std::path::Path;
@@ -14,7 +14,7 @@ pub fn load_photo(path: &Path) -> Result<Image> {
     }
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     if ext == "exr" {
-        let (w, h, data) = crate::output::read_exr_rgb(path)?;
+        let (w, h, data) = crate::base::read_exr_rgb(path)?;
         return Image::new(w as usize, h as usize, 3, data).map_err(|e| Error::io(path, e));
     }
     let reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;

@@ -7,8 +7,8 @@
 //! frontal view whose vanishing points lie at infinity (lines parallel to the image plane carry no focal length).
 
 use super::line_segments::{detect_segments, Segment, SegmentOptions};
-use crate::loss::Image;
-use crate::stages::symmetric_eigen;
+use crate::base::symmetric_eigen;
+use crate::base::Image;
 use glam::{DMat3, DVec3};
 
 /// A vanishing point and the segments that meet in it.

@@ -11,8 +11,8 @@
 use super::depth::Depth;
 use super::masks::Instances;
 use super::observations::Observations;
+use crate::base::Image;
 use crate::error::{Error, Result};
-use crate::loss::Image;
 
 /// Working sides are multiples of this.
 pub const WORKING_MULTIPLE: usize = 8;

@@ -5,7 +5,7 @@ use crate::backend::Backend;
 use crate::error::Result;
 use crate::grad::vjp::outputs::{moves_geometry, outputs_vjp, OutputAdjoints};
 use crate::grad::vjp::radiance_pose::BoundarySamples;
-use crate::grad::{mean_and_std_err, GradLayout, ImageLoss, Output, ParamPath};
+use crate::grad::{mean_and_std_err, radiance_vjp_cross_on, GradLayout, ImageLoss, Output, ParamPath};
 use crate::render::{Frame, SceneData};
 use crate::scene::Scene;
 
@@ -116,7 +116,7 @@ fn gradient_on(
             (radiance, pose_params.is_empty(), settings.spp >= 2, loss.pixelwise())
         {
             let seed_b = settings.seed.wrapping_add(ADJOINT_SEED_OFFSET);
-            let (g, image) = backend.radiance_vjp_cross(data, &settings, &material, &pixelwise, seed_b)?;
+            let (g, image) = radiance_vjp_cross_on(backend, data, &settings, &material, &pixelwise, seed_b)?;
             losses.push(pixelwise.loss(&image));
             runs.push(g);
             continue;

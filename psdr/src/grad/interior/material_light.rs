@@ -397,7 +397,7 @@ pub(crate) fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVer
 /// Carries the adjoints of the albedo and roughness material `m` read at (transformed) `uv` into texture space:
 /// single texels, whole albedo maps of procedural materials, and the uv transform. The GPU adjoint writes these
 /// arguments out per vertex and the host calls this in the CPU's order (backend/vk_adjoint.rs).
-pub(crate) fn texture_read_adjoint(
+pub fn texture_read_adjoint(
     d: &SceneData,
     l: &GradLayout,
     m: usize,
@@ -473,7 +473,7 @@ pub(crate) fn normal_map_sweep(d: &SceneData, l: &GradLayout, rec: &PathRecord, 
 /// of its uv transform (`d_uv`: scale x, scale y, rotation) into the gradient: the map's requested texels by their
 /// bilinear weights, the transform's slots. The GPU adjoint writes these arguments out per vertex and the host
 /// calls this in the CPU's order (backend/vk_adjoint.rs).
-pub(crate) fn normal_read_adjoint(
+pub fn normal_read_adjoint(
     d: &SceneData,
     l: &GradLayout,
     m: usize,

@@ -85,11 +85,7 @@ pub fn aovs_vjp(
 
 /// Each object's mask adjoint (`None` for the masks the loss does not read), once the depth's and every mask's
 /// adjoint are checked to cover the image and no object is given twice.
-pub(crate) fn masks_by_object<'a>(
-    scene: &Scene,
-    d: &SceneData,
-    adjoints: &AovAdjoints<'a>,
-) -> Result<Vec<Option<&'a [f32]>>> {
+pub fn masks_by_object<'a>(scene: &Scene, d: &SceneData, adjoints: &AovAdjoints<'a>) -> Result<Vec<Option<&'a [f32]>>> {
     let (w, h) = (d.camera.width as usize, d.camera.height as usize);
     if let Some(a) = adjoints.depth {
         check_adjoint(a, w * h)?;

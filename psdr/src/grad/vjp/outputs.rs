@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use crate::grad::path::velocity::PoseLayout;
 use crate::grad::vjp::aov::AovAdjoints;
 use crate::grad::vjp::radiance_pose::{radiance_pose_vjp, BoundarySamples};
-use crate::grad::{GradLayout, ParamPath};
+use crate::grad::{aovs_vjp_on, radiance_vjp_on, GradLayout, ParamPath};
 use crate::render::SceneData;
 use crate::scene::{RenderSettings, Scene};
 
@@ -60,7 +60,7 @@ pub fn outputs_vjp(
     let mut g_pose = vec![0.0; pose.len];
     if let Some(radiance) = &adjoints.radiance {
         if material.len > 0 {
-            g_material = backend.radiance_vjp(data, settings, &material, radiance)?;
+            g_material = radiance_vjp_on(backend, data, settings, &material, radiance)?;
         }
         if pose.len > 0 {
             g_pose = radiance_pose_vjp(scene, data, settings, &pose, radiance, boundary, backend)?;
@@ -69,7 +69,7 @@ pub fn outputs_vjp(
     if pose.len > 0 && (adjoints.depth.is_some() || !adjoints.masks.is_empty()) {
         let masks: Vec<(usize, &[f32])> = adjoints.masks.iter().map(|(o, a)| (*o, a.as_slice())).collect();
         let aov = AovAdjoints { depth: adjoints.depth.as_deref(), masks: &masks };
-        let g = backend.aovs_vjp(scene, data, settings, &pose, &aov, boundary.primary)?;
+        let g = aovs_vjp_on(backend, scene, data, settings, &pose, &aov, boundary.primary)?;
         g_pose.iter_mut().zip(g).for_each(|(a, b)| *a += b);
     }
     in_param_order(scene, params, g_material, g_pose)

@@ -11,7 +11,7 @@ use crate::grad::boundary::shadow::{shadow_boundary, shadow_sample_count, Shadow
 use crate::grad::interior::geometry::{entries_touching, replay_radiance, Tangent};
 use crate::grad::path::record::{record_path, PathRecord};
 use crate::grad::path::velocity::PoseLayout;
-use crate::grad::{accumulate_blocks, check_adjoint};
+use crate::grad::{accumulate_blocks, check_adjoint, radiance_primary_boundary_on};
 use crate::render::camera::camera_ray;
 use crate::render::cpu::frame_params;
 use crate::render::path_trace::trace_from;
@@ -48,7 +48,7 @@ pub fn radiance_pose_vjp(
         Some(g) => g,
         None => interior_and_secondary(scene, d, settings, pose, adjoint, samples.secondary),
     };
-    let primary = backend.radiance_primary_boundary(scene, d, settings, pose, adjoint, samples.primary)?;
+    let primary = radiance_primary_boundary_on(backend, scene, d, settings, pose, adjoint, samples.primary)?;
     grad.iter_mut().zip(primary).for_each(|(g, p)| *g += p);
     if samples.secondary > 0 {
         // The direct-shadow part the path-vertex estimator leaves out, sampled from the lights (on the host

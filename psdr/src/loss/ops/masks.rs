@@ -1,7 +1,7 @@
 //! Mask statistics: the mean colour of a region and the soft IoU of two anti-aliased masks.
 
+use crate::base::Image;
 use crate::error::{Error, Result};
-use crate::loss::image::Image;
 use crate::loss::tape::{record, Kind, Tensor};
 
 fn check_mask(op: &str, img: &Image, mask: &Image) -> Result<()> {

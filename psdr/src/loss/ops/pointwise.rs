@@ -1,8 +1,8 @@
 //! Elementwise ops with broadcasting: a 1x1x1 scalar against anything, a 1-channel image against a C-channel
 //! image of the same size. Backward sums each output gradient into the operand element it came from.
 
+use crate::base::Image;
 use crate::error::{Error, Result};
-use crate::loss::image::Image;
 use crate::loss::tape::{record, Kind, Tensor};
 
 /// The output shape of a broadcast between two shapes, or an error naming the op.

@@ -1,8 +1,8 @@
 //! Reductions to scalars: sums, means, the image distances losses are made of, weighted means.
 
 use super::pointwise::{broadcast_shape, reduce_to, src_index};
+use crate::base::Image;
 use crate::error::{Error, Result};
-use crate::loss::image::Image;
 use crate::loss::tape::{record, Kind, Tensor};
 
 pub fn sum(a: &Tensor) -> Result<Tensor> {

@@ -1,7 +1,7 @@
 //! Resampling: box downsampling, Gaussian blur and pyramid, crops.
 
+use crate::base::Image;
 use crate::error::{Error, Result};
-use crate::loss::image::Image;
 use crate::loss::tape::{record, Kind, Tensor};
 use rayon::prelude::*;
 

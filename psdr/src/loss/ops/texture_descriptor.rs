@@ -6,8 +6,8 @@
 
 use super::pointwise::{div, sqr};
 use super::reduce::{l2, mean};
+use crate::base::Image;
 use crate::error::{Error, Result};
-use crate::loss::image::Image;
 use crate::loss::tape::{record, Kind, Tensor};
 use rayon::prelude::*;
 

@@ -4,8 +4,8 @@
 //! front of it, radiance 1 (the light fit scales it). Named `light_window_ID`, so the light fit and the material
 //! stage treat it as a light.
 
+use crate::base::Intrinsics;
 use crate::scene::{rectangle_mesh, Emitter, Material, Object, Pose, Scene};
-use crate::stages::geometry::Intrinsics;
 use crate::vision::Instances;
 use glam::{Quat, Vec3};
 

@@ -26,6 +26,7 @@ use super::albedo_division::Segment;
 use super::graph_fit::{fit_graph_to_crop, GraphFit, GraphFitOptions};
 use super::material_search::{search_materials_with, view_at, LibraryTexture, MaterialEncoder, MaterialMatch};
 use super::texture_view::UvGrid;
+use crate::base::squarest_rect;
 use crate::error::{Error, Result};
 use crate::loss::{Image, Tensor};
 use crate::render::bvh::trace_closest;
@@ -33,7 +34,6 @@ use crate::render::camera::camera_ray;
 use crate::render::layout::SHADING_HAS_UVS;
 use crate::render::{render_cpu, SceneData};
 use crate::scene::{Color, Procedural, Scene, UvTransform};
-use crate::script::squarest_rect;
 use glam::{Vec2, Vec3};
 
 #[derive(Clone, Debug)]

@@ -5,7 +5,7 @@
 //! camera (or a path tracer at many samples per pixel) averages it instead of aliasing: aliased views change
 //! completely under a 2 % change of scale, which no texture comparison or search can work with.
 
-use crate::loss::Image;
+use crate::base::Image;
 use psdr_materials::{TextureTransform, TextureView, TransformGrad};
 
 /// The surface's uv under each pixel of a crop (`samples` per pixel, averaged: a pixel's footprint), as the

@@ -15,10 +15,10 @@ use super::object_support::{
 use super::pose_search::{
     align, distinct_yaws, footprint_size, percentile, pose_at, score, sweep_target, PoseRenderer, PoseSearch,
 };
+use crate::base::Image;
+use crate::base::{erode, surface_points, Intrinsics};
 use crate::db::{best_view_iou, ModelEntry, ModelSet, Silhouette};
-use crate::loss::Image;
 use crate::scene::{box_mesh, MeshPart, Object, Scene};
-use crate::stages::geometry::{erode, surface_points, Intrinsics};
 use crate::vision::{cosine, embed, load_photo, ClassKind, Instances, OnnxModel};
 use glam::Vec3;
 use std::collections::BTreeMap;

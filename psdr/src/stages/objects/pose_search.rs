@@ -2,11 +2,11 @@
 //! instance as a target at the sweep's size, the score (mask IoU less depth misfit), a renderer that moves the
 //! camera instead of the model, the median alignment on the floor, and the compass search of the finalists.
 
+use crate::base::Intrinsics;
 use crate::render::primary_hits::{model_scene_data, primary_hits};
 use crate::render::scene_data::camera_gpu;
 use crate::render::SceneData;
 use crate::scene::{Camera, MeshPart, Pose};
-use crate::stages::geometry::Intrinsics;
 use crate::vision::{ClassKind, Instances};
 use glam::{Quat, Vec3};
 

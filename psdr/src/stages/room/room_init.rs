@@ -4,9 +4,9 @@
 //! wall that is not seen is put just behind the camera (photos are taken from a room's edge), or just beyond
 //! every point seen in its direction. The camera's height, pitch and roll come out of the floor plane.
 
+use crate::base::{erode, surface_points, Intrinsics, SurfacePoint};
+use crate::base::{fit_plane_in_depth, ransac_plane};
 use crate::error::{Error, Result};
-use crate::stages::geometry::{erode, surface_points, Intrinsics, SurfacePoint};
-use crate::stages::geometry::{fit_plane_in_depth, ransac_plane};
 use glam::{Mat4, Vec3, Vec4};
 
 /// Knobs of the initialisation (a script passes its own).

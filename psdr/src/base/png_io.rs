@@ -1,8 +1,8 @@
 //! 8-bit sRGB PNG output of linear RGB (clamped; no tone mapping beyond an optional exposure).
 
+use super::linear_to_srgb as to_srgb;
 use super::write_atomically;
 use crate::error::{Error, Result};
-use crate::scene::texture_linear_to_srgb as to_srgb;
 use std::path::Path;
 
 pub fn write_png_srgb(path: &Path, width: u32, height: u32, rgb: &[f32]) -> Result<()> {

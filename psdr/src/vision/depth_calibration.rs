@@ -6,9 +6,8 @@
 //! structure. The scale cannot come from a single photo: it is set by a stated prior, the camera's height above
 //! the floor, and recorded as such.
 
+use crate::base::{erode, fit_plane_in_depth, ransac_plane, surface_points, Intrinsics};
 use crate::error::{Error, Result};
-use crate::stages::geometry::{erode, surface_points, Intrinsics};
-use crate::stages::geometry::{fit_plane_in_depth, ransac_plane};
 use crate::vision::DepthUnits;
 use glam::Vec3;
 
