@@ -234,6 +234,25 @@ fn cli_render_of_a_missing_scene_fails_with_a_message() {
     assert!(!dir.join("x.exr").exists(), "no output for a failed render");
 }
 
+/// An output `psdr render` cannot write is refused before the render, not after it (a 512x384 render at 256
+/// spp took two minutes to reach that message): with `--spp 0` also given, the output's error must come first.
+#[test]
+fn cli_render_to_an_unwritable_format_fails_before_rendering() {
+    let Some(bin) = psdr_tests::psdr_bin() else {
+        return;
+    };
+    let dir = temp_dir("bad-cli-ext");
+    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/fit/truth.json");
+    let out = std::process::Command::new(&bin)
+        .args(["render", scene.to_str().unwrap(), "-o", dir.join("x.jpg").to_str().unwrap(), "--spp", "0", "--quiet"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "exit status {:?}", out.status);
+    assert!(stderr.contains("x.jpg") && stderr.contains(".exr or .png"), "stderr: {stderr}");
+    assert!(!stderr.contains("spp"), "the render ran before the output was checked: {stderr}");
+}
+
 /// `psdr grad` with one seed prints its estimates and says that there is no standard error (it printed
 /// "± NaN"), and zero seeds is rejected by name instead of silently running one.
 #[test]

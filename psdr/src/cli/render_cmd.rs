@@ -1,7 +1,7 @@
 //! `psdr render SCENE -o OUT.exr [--spp N] [--seed S] [--aov LIST] [--backend cpu|vk] [--device GPU]`
 
 use crate::backend::{create_backend_on, BackendKind};
-use crate::output::{write_frame, Aov};
+use crate::output::{check_frame_path, write_frame, Aov};
 use crate::render::SceneData;
 use crate::scene::load_scene;
 use clap::Args;
@@ -41,6 +41,7 @@ pub struct RenderArgs {
 }
 
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
+    check_frame_path(&a.output)?;
     let mut scene = load_scene(&a.scene)?;
     if let Some(v) = a.spp {
         scene.settings.spp = v;

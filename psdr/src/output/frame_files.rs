@@ -55,25 +55,31 @@ pub fn aov_path(out: &Path, aov: &str) -> PathBuf {
     out.with_file_name(format!("{stem}.{aov}.exr"))
 }
 
+/// Refuses an output path `write_frame` cannot write (checked before a render, not after it).
+pub fn check_frame_path(out: &Path) -> Result<()> {
+    let ext = out.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    match ext.as_str() {
+        "exr" | "png" => Ok(()),
+        _ => Err(Error::io(out, "output must end in .exr or .png")),
+    }
+}
+
 /// Writes the frame. `out` ending in .exr gets the EXR set plus a PNG preview; .png gets the PNG only.
 /// Returns every path written.
 pub fn write_frame(out: &Path, frame: &Frame, aovs: &[Aov], object_names: &[String]) -> Result<Vec<PathBuf>> {
+    check_frame_path(out)?;
     let (w, h) = (frame.width, frame.height);
     let ext = out.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let mut written = Vec::new();
-    match ext.as_str() {
-        "exr" => {
-            write_exr_channels(out, w, h, &rgb_channels("", &frame.radiance))?;
-            written.push(out.to_path_buf());
-            let png = out.with_extension("png");
-            write_png_srgb(&png, w, h, &frame.radiance)?;
-            written.push(png);
-        }
-        "png" => {
-            write_png_srgb(out, w, h, &frame.radiance)?;
-            written.push(out.to_path_buf());
-        }
-        _ => return Err(Error::io(out, "output must end in .exr or .png")),
+    if ext == "exr" {
+        write_exr_channels(out, w, h, &rgb_channels("", &frame.radiance))?;
+        written.push(out.to_path_buf());
+        let png = out.with_extension("png");
+        write_png_srgb(&png, w, h, &frame.radiance)?;
+        written.push(png);
+    } else {
+        write_png_srgb(out, w, h, &frame.radiance)?;
+        written.push(out.to_path_buf());
     }
     for &aov in aovs {
         let channels = match aov {

@@ -4,4 +4,4 @@
 mod frame_files;
 
 pub use crate::base::{read_exr_channels, read_exr_rgb, write_atomically, write_exr_channels, write_png_srgb};
-pub use frame_files::{write_frame, Aov};
+pub use frame_files::{check_frame_path, write_frame, Aov};
