@@ -127,8 +127,10 @@ pub fn run_script(run: ScriptRun, backend: Box<dyn Backend>) -> Result<RunSummar
         crate::progress::set_stage(Some("outputs"));
         let _writing = crate::progress::activity(
             format!(
-                "scene.json, scene.glb, the Mitsuba export and render.png at {}x{}",
-                scene.camera.width, scene.camera.height
+                "scene.json, scene.glb, the Mitsuba export and render.png at {}x{}, {} spp",
+                scene.camera.width,
+                scene.camera.height,
+                if c.options.final_spp > 0 { c.options.final_spp } else { c.options.preview_spp }
             ),
             None,
         );
@@ -137,7 +139,7 @@ pub fn run_script(run: ScriptRun, backend: Box<dyn Backend>) -> Result<RunSummar
         // The scene for Blender and the web, and for Mitsuba 3, as well.
         crate::export::gltf::export_glb(scene, &run.out.join("scene.glb"))?;
         crate::export::mitsuba::export_mitsuba(scene, &run.out.join("mitsuba"))?;
-        c.preview(scene, &run.out.join("render.png"))?;
+        c.render_final(scene, &run.out.join("render.png"))?;
         scene_path = Some(path);
     }
     c.write_summary(final_scene.as_ref())?;

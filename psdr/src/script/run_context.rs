@@ -23,6 +23,8 @@ pub struct RunOptions {
     pub quiet: bool,
     /// Samples per pixel of the preview render written at the end of each stage.
     pub preview_spp: u32,
+    /// Samples per pixel of the final `render.png` the report compares with the photo (0: `preview_spp`).
+    pub final_spp: u32,
     /// Where `observe(PHOTO)` takes the photo's observations from (the command line's flags); None: the
     /// files beside the photo.
     pub observations: Option<crate::vision::ObservationInputs>,
@@ -204,9 +206,20 @@ impl RunContext {
 
     /// Renders `scene` at the preview spp to a PNG (sRGB), and returns the render (linear RGB).
     pub fn preview(&mut self, scene: &Scene, path: &Path) -> Result<crate::loss::Image> {
+        self.render_png(scene, path, self.options.preview_spp)
+    }
+
+    /// The final scene's `render.png` at `final_spp`: clean enough to compare with the photo by eye (the
+    /// report's difference image shows the fit's error, not the render's noise).
+    pub fn render_final(&mut self, scene: &Scene, path: &Path) -> Result<crate::loss::Image> {
+        let spp = if self.options.final_spp > 0 { self.options.final_spp } else { self.options.preview_spp };
+        self.render_png(scene, path, spp)
+    }
+
+    fn render_png(&mut self, scene: &Scene, path: &Path, spp: u32) -> Result<crate::loss::Image> {
         let backend = self.backend.as_mut().ok_or_else(|| Error::Invalid("render inside a loss closure".into()))?;
         let mut settings = scene.settings.clone();
-        settings.spp = self.options.preview_spp.max(1);
+        settings.spp = spp.max(1);
         let data = crate::render::SceneData::build(scene)?;
         let frame = backend.render(&data, &settings, &|_, _| {})?;
         crate::output::write_png_srgb(path, frame.width, frame.height, &frame.radiance)?;
