@@ -57,6 +57,22 @@ pub struct OptimizationReport {
     pub params: Vec<String>,
 }
 
+/// A stage's steps by label, in the order each first ran, with how often it ran and its total seconds (a
+/// search repeats its unit renders per candidate; one row each would bury the stage's shape).
+fn phase_totals(phases: &[(String, f64)]) -> Vec<(&str, usize, f64)> {
+    let mut out: Vec<(&str, usize, f64)> = vec![];
+    for (label, t) in phases {
+        match out.iter_mut().find(|p| p.0 == label) {
+            Some(p) => {
+                p.1 += 1;
+                p.2 += t;
+            }
+            None => out.push((label, 1, *t)),
+        }
+    }
+    out
+}
+
 /// Components of a parameter shown in its trajectory chart.
 const MAX_COMPONENTS: usize = 12;
 
@@ -72,6 +88,7 @@ fn component_names(path: &str, n: usize) -> Vec<(String, Option<&'static str>)> 
         .map(|k| match (colour, axes, n, k) {
             (true, _, 3, _) => (["R", "G", "B"][k].to_string(), Some(["#d62728", "#2ca02c", "#1f77b4"][k])),
             (_, true, 3 | 4, _) => (["x", "y", "z", "w"][k].to_string(), None),
+            (_, _, 1, _) => (last.to_string(), None),
             _ => (format!("[{k}]"), None),
         })
         .collect()
@@ -254,8 +271,9 @@ pub fn report_html(r: &RunReport) -> String {
             // Every second of the stage: its steps, and what no step covered (setup, small steps).
             let covered: f64 = st.phases.iter().map(|p| p.1).sum();
             s.push_str("<table><tr><th>step</th><th>seconds</th></tr>");
-            for (label, t) in &st.phases {
-                let _ = write!(s, "<tr><td style=\"text-align:left\">{}</td><td>{t:.1}</td></tr>", esc(label));
+            for (label, count, t) in phase_totals(&st.phases) {
+                let label = if count > 1 { format!("{label} (x{count})") } else { label.to_string() };
+                let _ = write!(s, "<tr><td style=\"text-align:left\">{}</td><td>{t:.1}</td></tr>", esc(&label));
             }
             let _ = write!(
                 s,
@@ -357,6 +375,9 @@ mod tests {
         assert_eq!(component_names("object/sofa/translation", 3)[2].0, "z");
         assert_eq!(component_names("object/sofa/rotation", 4)[3].0, "w");
         assert_eq!(component_names("object/sofa/vertices", 5)[4].0, "[4]");
+        assert_eq!(component_names("object/chair/yaw", 1)[0].0, "yaw");
+        let phases = [("a".to_string(), 1.0), ("b".to_string(), 2.0), ("a".to_string(), 0.5)];
+        assert_eq!(phase_totals(&phases), vec![("a", 2, 1.5), ("b", 1, 2.0)]);
         let rec = |i: usize, loss: f64| IterationRecord {
             iteration: i,
             loss,
