@@ -93,19 +93,34 @@ pub fn sha256_file(path: &Path) -> Result<String> {
 /// How to get the model for `file` (`depth.onnx`): the command, and the manual way on a machine without
 /// internet. Every "no depth / no segmentation" message ends with it.
 pub fn fetch_hint(file: &str) -> String {
+    fetch_hint_files(&[file])
+}
+
+/// How to get the models for `files` at once (a photo with nothing beside it lacks depth and segmentation):
+/// one `psdr models fetch`, or each file by hand with its URL and checksum.
+pub fn fetch_hint_files(files: &[&str]) -> String {
     let manifest = super::Manifest::pinned();
     let dir = cache_folder();
-    match manifest.by_file(file) {
-        Some(e) => format!(
-            "or run `psdr models fetch` once (downloads {file}, {:.0} MB, {}, into {}); without internet, download \
-             {} elsewhere, check its SHA-256 is {}, and put it at {}",
-            e.size as f64 / 1e6,
-            e.licence,
+    let pinned: Vec<_> = files.iter().filter_map(|f| manifest.by_file(f)).collect();
+    let unpinned: Vec<&str> = files.iter().copied().filter(|f| manifest.by_file(f).is_none()).collect();
+    let mut parts = vec![];
+    if !pinned.is_empty() {
+        let what: Vec<String> =
+            pinned.iter().map(|e| format!("{}, {:.0} MB, {}", e.file, e.size as f64 / 1e6, e.licence)).collect();
+        let by_hand: Vec<String> = pinned
+            .iter()
+            .map(|e| format!("{} (SHA-256 {}) to {}", e.url, e.sha256, dir.join(&e.file).display()))
+            .collect();
+        parts.push(format!(
+            "or run `psdr models fetch` once (downloads {} into {}); without internet, download elsewhere and check \
+             the SHA-256: {}",
+            what.join("; "),
             dir.display(),
-            e.url,
-            e.sha256,
-            dir.join(file).display()
-        ),
-        None => format!("or put a {file} (docs/observations.md gives its contract) into {}", dir.display()),
+            by_hand.join(", ")
+        ));
     }
+    for f in unpinned {
+        parts.push(format!("or put a {f} (docs/observations.md gives its contract) into {}", dir.display()));
+    }
+    parts.join(", ")
 }

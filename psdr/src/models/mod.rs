@@ -8,6 +8,7 @@ mod manifest;
 
 pub use download::{fetch_model, Fetched};
 pub use folder::{
-    cache_folder, fetch_folder, fetch_hint, model_state, models_env, models_folder, part_path, sha256_file, ModelState,
+    cache_folder, fetch_folder, fetch_hint, fetch_hint_files, model_state, models_env, models_folder, part_path,
+    sha256_file, ModelState,
 };
 pub use manifest::{Manifest, ModelEntry};

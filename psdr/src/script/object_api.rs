@@ -163,7 +163,8 @@ fn check_models(run: &RunRef, db: &str, obs: &ObsHandle, opts: &Map) -> crate::R
             ),
         ));
     }
-    let inst = obs.0.require_instances()?;
+    // Depth too: the run should stop here, before any stage, naming everything the photo lacks.
+    let (_, inst) = obs.0.require_depth_and_instances()?;
     let missing = crate::stages::missing_classes(inst, &models, min_pixels);
     if missing.is_empty() {
         return Ok(());

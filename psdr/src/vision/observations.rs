@@ -346,6 +346,23 @@ impl Observations {
         })
     }
 
+    /// The depth and the instances, or one error naming all that is missing: a photo with nothing beside it
+    /// lacks both, and its user should learn that from one message, not one file per run.
+    pub fn require_depth_and_instances(&self) -> Result<(&Depth, &Instances)> {
+        if self.depth.is_none() && self.instances.is_none() {
+            return Err(Error::Invalid(format!(
+                "no depth and no segmentation for {}: put {s}.depth.exr (or a 16-bit {s}.depth.png), {s}.masks.png \
+                 (16-bit instance ids, 0 = none) and {s}.labels.json ({{\"<id>\": \"<class>\"}}) beside the photo, or \
+                 pass --depth FILE --masks FILE --labels FILE, or --models DIR holding depth.onnx and \
+                 segmentation.onnx, {}",
+                self.photo_path.display(),
+                crate::models::fetch_hint_files(&["depth.onnx", "segmentation.onnx"]),
+                s = self.stem()
+            )));
+        }
+        Ok((self.require_depth()?, self.require_instances()?))
+    }
+
     /// The instances, or an error listing how to supply them.
     pub fn require_instances(&self) -> Result<&Instances> {
         self.instances.as_ref().ok_or_else(|| {
