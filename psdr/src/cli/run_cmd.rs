@@ -38,8 +38,8 @@ pub struct RunArgs {
     /// Samples per pixel of each stage's preview render.
     #[arg(long, default_value_t = 16)]
     preview_spp: u32,
-    /// Samples per pixel of the final render.png, which the report compares with the photo (64: a quarter of
-    /// 16 spp's noise, about 16 s at 512x384 on 2 cores).
+    /// Samples per pixel of the final render.png, which the report compares with the photo (64: half the noise
+    /// of 16 spp; 16 s at 512x384 on 2 cores).
     #[arg(long, default_value_t = 64)]
     final_spp: u32,
     /// No progress bars or log lines.
