@@ -9,6 +9,7 @@
 //! size stays as close to the photo as the homogeneous one's.
 
 use glam::{Vec2, Vec3};
+use psdr::backend::CpuBackend;
 use psdr::loss::Image;
 use psdr::render::{render_cpu, SceneData};
 use psdr::scene::{Color, Scene, Texture, UvTransform};
@@ -80,7 +81,7 @@ fn textured_floor_and_walls_get_their_library_materials() {
     // contrast comes out 30 % above the photo's, a bias of the descriptor recorded in the closing notes).
     let mut opts = SurfaceTextureOptions { spp: 128, ..Default::default() };
     opts.graph_fit.iters = 0;
-    let found = texture_surfaces(&mut start, &frame.radiance, &segments, &library, &opts).unwrap();
+    let found = texture_surfaces(&mut CpuBackend, &mut start, &frame.radiance, &segments, &library, &opts).unwrap();
     eprintln!("texture_surfaces: {:.1} s (with the photo's render)", t.elapsed().as_secs_f32());
     eprintln!("{}", serde_json::to_string_pretty(&found).unwrap());
     for (m, name, scale, rotation) in wear {

@@ -29,7 +29,8 @@ pub struct RunArgs {
     /// from its last checkpoint (same result as an uninterrupted run).
     #[arg(long)]
     resume: bool,
-    /// Render backend for the primal renders.
+    /// Where the stages render and differentiate (vk: a Vulkan GPU, or lavapipe without one); the object
+    /// retrieval's ray casts stay on the CPU.
     #[arg(long, default_value = "cpu", value_parser = super::backend_parser())]
     backend: BackendKind,
     /// GPU to render on (vk backend), a part of its name.

@@ -34,3 +34,20 @@ pub fn check_photo(what: &str, scene: &crate::scene::Scene, photo: &crate::loss:
     }
     Ok(())
 }
+
+/// Runs `f` on the run's backend, taken out of the context meanwhile (so `f` may borrow the context, and a
+/// loss closure, which runs while an optimisation holds the backend, gets an error instead of a second one).
+pub fn on_backend<T>(
+    run: &RunRef,
+    who: &str,
+    f: impl FnOnce(&mut dyn crate::backend::Backend) -> crate::Result<T>,
+) -> crate::Result<T> {
+    let mut backend = run
+        .borrow_mut()
+        .backend
+        .take()
+        .ok_or_else(|| Error::Invalid(format!("{who}() cannot run inside a loss closure")))?;
+    let out = f(backend.as_mut());
+    run.borrow_mut().backend = Some(backend);
+    out
+}

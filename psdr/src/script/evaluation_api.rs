@@ -4,11 +4,11 @@
 //! `evaluation.mask_iou` gives each placed object's IoU against its instance. For synthetic photos, where a
 //! truth exists: the examples, the tests and the evaluation benchmark.
 
-use super::api_support::{rhai_err, Rr, RunRef};
+use super::api_support::{on_backend, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
 use super::vision_api::ObsHandle;
 use crate::error::Error;
-use crate::render::{render_cpu, SceneData};
+use crate::render::SceneData;
 use crate::scene::load_scene;
 use rhai::{Dynamic, Engine, Map};
 use std::path::Path;
@@ -33,7 +33,7 @@ fn evaluate(run: &RunRef, scene: &SceneHandle, obs: &ObsHandle, truth: &str, opt
         return Err(Error::Invalid("evaluate: the photo must be RGB".into()));
     }
     fitted.settings.spp = spp;
-    let frame = render_cpu(&SceneData::build(&fitted)?, &fitted.settings, &|_, _| {});
+    let frame = on_backend(run, "evaluate", |b| b.render(&SceneData::build(&fitted)?, &fitted.settings, &|_, _| {}))?;
     // Which model each placed object is (none when the geometry was given), and the split pieces merged into it.
     let placed: Vec<serde_json::Value> =
         run.borrow().recorded.get("objects_init").and_then(|o| o["placed"].as_array().cloned()).unwrap_or_default();
@@ -53,7 +53,8 @@ fn evaluate(run: &RunRef, scene: &SceneHandle, obs: &ObsHandle, truth: &str, opt
     (truth_view.camera.width, truth_view.camera.height) = (fitted.camera.width, fitted.camera.height);
     truth_view.settings.spp = spp;
     truth_view.settings.max_depth = 1;
-    let truth_frame = render_cpu(&SceneData::build(&truth_view)?, &truth_view.settings, &|_, _| {});
+    let truth_frame =
+        on_backend(run, "evaluate", |b| b.render(&SceneData::build(&truth_view)?, &truth_view.settings, &|_, _| {}))?;
     let masks = obs.0.instances.as_ref().map(|m| (m, merged.as_slice()));
     let errors = crate::stages::evaluate(&fitted, &truth, &models, &frame, &truth_frame, &photo.data, masks);
     run.borrow_mut().recorded.insert("evaluation".into(), errors.clone());

@@ -4,7 +4,7 @@
 //! photo shows as area lights. `place_lights(s, photo, #{step, min_step, size_factor, spp, downsample})` moves
 //! and sizes the lights by pattern search (`stages::light_placement`), recorded as `light_placement`.
 
-use super::api_support::{check_photo, option_number, rhai_err, Rr, RunRef};
+use super::api_support::{check_photo, on_backend, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
 use super::vision_api::ObsHandle;
 use crate::error::Error;
@@ -63,7 +63,7 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
     let img = photo.value();
     check_photo("fit_lights", &scene.0, img)?;
     let names: Vec<String> = scene.0.objects.iter().filter(|o| o.emitter.is_some()).map(|o| o.name.clone()).collect();
-    let f = fit_lights(&scene.0, &names, &img.data, &o)?;
+    let f = on_backend(run, "fit_lights", |b| fit_lights(b, &scene.0, &names, &img.data, &o))?;
     // Kept lights get their radiance; the others leave the scene.
     scene
         .0
@@ -133,7 +133,7 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
     }
     let img = photo.value();
     check_photo("place_lights", &scene.0, img)?;
-    let placed = refine_light_placement(&mut scene.0, &img.data, &o)?;
+    let placed = on_backend(run, "place_lights", |b| refine_light_placement(b, &mut scene.0, &img.data, &o))?;
     let v = serde_json::to_value(&placed).map_err(|e| Error::Invalid(e.to_string()))?;
     run.borrow_mut().recorded.insert("light_placement".into(), v.clone());
     rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))

@@ -10,7 +10,7 @@
 //! from the library, its graph fitted to the crop (`stages::surface_textures`, `stages::graph_fit`), recorded
 //! as `surface_textures` (crops, top matches, decisions, the graph fits).
 
-use super::api_support::{check_photo, option_number, rhai_err, Rr, RunRef};
+use super::api_support::{check_photo, on_backend, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
 use super::vision_api::ObsHandle;
 use crate::error::Error;
@@ -46,7 +46,7 @@ fn segments(what: &str, scene: &SceneHandle, photo: &Tensor, map: &Map) -> crate
     Ok((img.data.clone(), out))
 }
 
-fn divide(scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<()> {
+fn divide(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<()> {
     let (mut rounds, mut spp) = (3usize, 32u32);
     for (k, v) in opts {
         let n = option_number("divide_albedos", k, v)?;
@@ -57,7 +57,7 @@ fn divide(scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> cra
         }
     }
     let (photo, segs) = segments("divide_albedos", scene, photo, map)?;
-    divide_albedos(&mut scene.0, &photo, &segs, rounds, spp)
+    on_backend(run, "divide_albedos", |b| divide_albedos(b, &mut scene.0, &photo, &segs, rounds, spp))
 }
 
 fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<Map> {
@@ -83,7 +83,7 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
         }
     }
     let (photo, segs) = segments("light_scale_search", scene, photo, map)?;
-    let found = search_light_scale(&mut scene.0, &photo, &segs, &o)?;
+    let found = on_backend(run, "light_scale_search", |b| search_light_scale(b, &mut scene.0, &photo, &segs, &o))?;
     let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
     let mut c = run.borrow_mut();
     c.recorded.insert("light_scale".into(), v.clone());
@@ -144,7 +144,7 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
     }
     let (photo, segs) = segments(what, scene, photo, map)?;
     let library = library_textures(library_size)?;
-    let found = texture_surfaces(&mut scene.0, &photo, &segs, &library, &o)?;
+    let found = on_backend(run, what, |b| texture_surfaces(b, &mut scene.0, &photo, &segs, &library, &o))?;
     let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
     run.borrow_mut().recorded.insert("surface_textures".into(), v.clone());
     rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
@@ -178,9 +178,13 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
             textures(&r, s, &photo, &segments, &opts).map_err(rhai_err)
         },
     );
-    engine.register_fn("divide_albedos", |s: &mut SceneHandle, photo: Tensor, segments: Map, opts: Map| -> Rr<()> {
-        divide(s, &photo, &segments, &opts).map_err(rhai_err)
-    });
+    let r = run.clone();
+    engine.register_fn(
+        "divide_albedos",
+        move |s: &mut SceneHandle, photo: Tensor, segments: Map, opts: Map| -> Rr<()> {
+            divide(&r, s, &photo, &segments, &opts).map_err(rhai_err)
+        },
+    );
     let r = run.clone();
     engine.register_fn(
         "light_scale_search",

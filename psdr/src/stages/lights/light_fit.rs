@@ -5,8 +5,9 @@
 //! removed one at a time (greedy backward elimination) while removing the least useful one raises the fit's
 //! error by less than a stated fraction.
 
+use crate::backend::Backend;
 use crate::error::{Error, Result};
-use crate::render::{render_cpu, SceneData};
+use crate::render::SceneData;
 use crate::scene::Scene;
 use glam::Vec3;
 
@@ -182,16 +183,21 @@ pub(crate) fn lit_by(scene: &Scene, light: usize, opts: &LightFitOptions) -> Sce
 /// the camera's, k = `downsample`): rendered at that size where k divides the camera's sides (`spp` per small
 /// pixel), else at the camera's size with spp/k^2 per pixel and box-downsampled, the same samples per block (a
 /// full-size render at `spp` would cost k^2 times as much for the same comparison).
-pub(crate) fn unit_render(scene: &Scene, light: usize, opts: &LightFitOptions) -> Result<Vec<f32>> {
+pub(crate) fn unit_render(
+    backend: &mut dyn Backend,
+    scene: &Scene,
+    light: usize,
+    opts: &LightFitOptions,
+) -> Result<Vec<f32>> {
     let mut s = lit_by(scene, light, opts);
     let k = opts.downsample.max(1);
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     if w % k == 0 && h % k == 0 {
         (s.camera.width, s.camera.height) = ((w / k) as u32, (h / k) as u32);
-        return Ok(render_cpu(&SceneData::build(&s)?, &s.settings, &|_, _| {}).radiance);
+        return Ok(backend.render(&SceneData::build(&s)?, &s.settings, &|_, _| {})?.radiance);
     }
     s.settings.spp = opts.spp.div_ceil((k * k) as u32).max(1);
-    let f = render_cpu(&SceneData::build(&s)?, &s.settings, &|_, _| {});
+    let f = backend.render(&SceneData::build(&s)?, &s.settings, &|_, _| {})?;
     Ok(downsample(&f.radiance, w, h, k).0)
 }
 
@@ -227,7 +233,14 @@ pub(crate) fn nnls_fit(basis: &[Vec<f32>], target: &FitTarget, active: &[usize])
 
 /// Fits the radiances of the emitters named `lights` (objects of `scene` with an emitter) to `photo` (linear RGB,
 /// the camera's size), then removes the lights the photo does not need.
-pub fn fit_lights(scene: &Scene, lights: &[String], photo: &[f32], opts: &LightFitOptions) -> Result<LightFit> {
+/// The unit renders run on `backend`.
+pub fn fit_lights(
+    backend: &mut dyn Backend,
+    scene: &Scene,
+    lights: &[String],
+    photo: &[f32],
+    opts: &LightFitOptions,
+) -> Result<LightFit> {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     if photo.len() != w * h * 3 {
         return Err(Error::Invalid(format!(
@@ -254,7 +267,7 @@ pub fn fit_lights(scene: &Scene, lights: &[String], photo: &[f32], opts: &LightF
         .iter()
         .map(|&li| {
             progress.advance();
-            unit_render(scene, li, opts)
+            unit_render(backend, scene, li, opts)
         })
         .collect::<Result<_>>()?;
     drop(progress);

@@ -8,6 +8,7 @@
 //! inside the room's box and within `size_range` of their start.
 
 use super::light_fit::{nnls_fit, unit_render, FitTarget, LightFitOptions};
+use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -85,6 +86,7 @@ pub struct LightPlacement {
 
 /// Moves and sizes every emitter of `scene` (see the module) and sets their radiances to the final fit.
 pub fn refine_light_placement(
+    backend: &mut dyn Backend,
     scene: &mut Scene,
     photo: &[f32],
     opts: &LightPlacementOptions,
@@ -110,7 +112,7 @@ pub fn refine_light_placement(
     let norm = target.norm();
     let rel = |err: f64| (err / norm).sqrt() as f32;
     let all: Vec<usize> = (0..lights.len()).collect();
-    let render = |scene: &Scene, li: usize| unit_render(scene, li, ro);
+    let mut render = |scene: &Scene, li: usize| unit_render(backend, scene, li, ro);
     let progress = crate::progress::activity(format!("placing {} lights, step {:.2} m", lights.len(), opts.step), None);
     let mut basis: Vec<Vec<f32>> = lights.iter().map(|&i| render(scene, i)).collect::<Result<_>>()?;
     let mut renders = basis.len();

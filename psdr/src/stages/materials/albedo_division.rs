@@ -10,10 +10,12 @@
 //! with the albedos divided anew, scored by the L1 distance to the photo at 1/downsample size per channel; per
 //! channel the best grid point, refined by a parabola through its neighbours. Albedos are clamped to
 //! 0.01..0.95, so a scale that would need brighter surfaces shows up as a worse fit, not a wrong albedo.
-//! Both leave out the pixels where the photo is clipped (`vision::unclipped`).
+//! Both leave out the pixels where the photo is clipped (`vision::unclipped`), and render on the run's backend
+//! (a GPU renders the division's many full-size images far faster than the CPU).
 
+use crate::backend::Backend;
 use crate::error::{Error, Result};
-use crate::render::{render_cpu, SceneData};
+use crate::render::SceneData;
 use crate::scene::{Color, Scene};
 use glam::Vec3;
 
@@ -64,10 +66,10 @@ fn check(scene: &Scene, photo: &[f32], segments: &[Segment]) -> Result<()> {
     Ok(())
 }
 
-fn render(scene: &Scene, spp: u32, seed: u32) -> Result<Vec<f32>> {
+fn render(backend: &mut dyn Backend, scene: &Scene, spp: u32, seed: u32) -> Result<Vec<f32>> {
     let mut settings = scene.settings.clone();
     (settings.spp, settings.seed) = (spp, seed);
-    Ok(render_cpu(&SceneData::build(scene)?, &settings, &|_, _| {}).radiance)
+    Ok(backend.render(&SceneData::build(scene)?, &settings, &|_, _| {})?.radiance)
 }
 
 /// The segments' masks where the photo records the scene (its clipped pixels left out); a segment the photo
@@ -82,14 +84,21 @@ fn recorded(segments: &[Segment], photo: &[f32], width: usize) -> Vec<Segment> {
 }
 
 /// `rounds` rounds of albedo = albedo x photo mean / render mean per segment, renders at `spp`.
-pub fn divide_albedos(scene: &mut Scene, photo: &[f32], segments: &[Segment], rounds: usize, spp: u32) -> Result<()> {
+pub fn divide_albedos(
+    backend: &mut dyn Backend,
+    scene: &mut Scene,
+    photo: &[f32],
+    segments: &[Segment],
+    rounds: usize,
+    spp: u32,
+) -> Result<()> {
     check(scene, photo, segments)?;
     let segments = &recorded(segments, photo, scene.camera.width as usize);
     let want: Vec<Vec3> = segments.iter().map(|s| mean_colour(photo, &s.mask)).collect();
     let progress = crate::progress::activity(format!("albedos divided out of {spp}-spp renders"), Some(rounds));
     for round in 0..rounds {
         progress.set(round, None);
-        let img = render(scene, spp, scene.settings.seed.wrapping_add(round as u32))?;
+        let img = render(backend, scene, spp, scene.settings.seed.wrapping_add(round as u32))?;
         for (s, want) in segments.iter().zip(&want) {
             let got = mean_colour(&img, &s.mask).max(Vec3::splat(1e-4));
             if let Color::Constant(a) = &mut scene.materials[s.material].albedo {
@@ -152,6 +161,7 @@ fn l1_downsampled(a: &[f32], b: &[f32], w: usize, h: usize, k: usize) -> [f64; 3
 /// its albedos divided, and returns what it tried. (Searched at 1/downsample of the camera's size, the same
 /// spp per pixel, the noise flattened the error curve and the scale came out 25 % off; it runs at full size.)
 pub fn search_light_scale(
+    backend: &mut dyn Backend,
     scene: &mut Scene,
     photo: &[f32],
     segments: &[Segment],
@@ -192,9 +202,9 @@ pub fn search_light_scale(
         set(scene, Vec3::splat(f));
         rescale_albedos(scene, segments, previous / f);
         previous = Vec3::splat(f);
-        divide_albedos(scene, photo, segments, opts.rounds, opts.spp)?;
+        divide_albedos(backend, scene, photo, segments, opts.rounds, opts.spp)?;
         at_factor.push(albedos(scene, segments));
-        let img = render(scene, opts.spp, scene.settings.seed)?;
+        let img = render(backend, scene, opts.spp, scene.settings.seed)?;
         out.factors.push(f);
         let img: Vec<f32> = img.iter().zip(&recorded_rgb).map(|(v, u)| v * u).collect();
         out.errors.push(l1_downsampled(&img, &recorded_photo, w, h, opts.downsample.max(1)));
@@ -226,7 +236,7 @@ pub fn search_light_scale(
         }
     }
     set(scene, chosen);
-    divide_albedos(scene, photo, segments, opts.rounds, opts.spp)?;
+    divide_albedos(backend, scene, photo, segments, opts.rounds, opts.spp)?;
     Ok(out)
 }
 

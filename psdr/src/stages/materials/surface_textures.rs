@@ -26,13 +26,14 @@ use super::albedo_division::Segment;
 use super::graph_fit::{fit_graph_to_crop, GraphFit, GraphFitOptions};
 use super::material_search::{search_materials_with, view_at, LibraryTexture, MaterialEncoder, MaterialMatch};
 use super::texture_view::UvGrid;
+use crate::backend::Backend;
 use crate::base::squarest_rect;
 use crate::error::{Error, Result};
 use crate::loss::{Image, Tensor};
 use crate::render::bvh::trace_closest;
 use crate::render::camera::camera_ray;
 use crate::render::layout::SHADING_HAS_UVS;
-use crate::render::{render_cpu, SceneData};
+use crate::render::SceneData;
 use crate::scene::{Color, Procedural, Scene, UvTransform};
 use glam::{Vec2, Vec3};
 
@@ -99,8 +100,10 @@ pub struct SurfaceTexture {
     pub graph_fit: Option<GraphFit>,
 }
 
-/// Runs steps 1-5 on every segment (see the module) and changes the chosen materials in `scene`.
+/// Runs steps 1-5 on every segment (see the module) and changes the chosen materials in `scene`; the shading
+/// render runs on `backend`.
 pub fn texture_surfaces(
+    backend: &mut dyn Backend,
     scene: &mut Scene,
     photo: &[f32],
     segments: &[Segment],
@@ -118,7 +121,7 @@ pub fn texture_surfaces(
     let data = SceneData::build(scene)?;
     let mut settings = scene.settings.clone();
     settings.spp = opts.spp.max(1);
-    let render = render_cpu(&data, &settings, &|_, _| {}).radiance;
+    let render = backend.render(&data, &settings, &|_, _| {})?.radiance;
     let mut model = opts.embedding.as_deref().map(crate::vision::load_embedding_model).transpose()?;
     let mut encoder = model.as_mut().map(|model| MaterialEncoder { model, weight: opts.embedding_weight });
     let mut out = vec![];
