@@ -125,19 +125,12 @@ fn agreement(cpu: &[f32], gpu: &[f32]) -> (f64, f64, f64) {
     (ok as f64 / cpu.len().max(1) as f64, worst_rel, worst_abs)
 }
 
-/// True on Mesa's lavapipe, where division and sqrt are IEEE-exact and the kernels are NoContraction: there the
-/// outputs that use no sin/cos must be bit-identical. Real GPUs round division and sqrt more loosely (the Vulkan
-/// spec allows a few ulp), so there only the bounds apply.
-fn exact_device(vk: &VkBackend) -> bool {
-    vk.context().capabilities().device_name.contains("llvmpipe")
-}
-
-fn check_frames(name: &str, cpu: &Frame, gpu: &Frame, spp: u32, exact_aovs: bool) {
+fn check_frames(name: &str, cpu: &Frame, gpu: &Frame, spp: u32, tol: &psdr_tests::DeviceAgreement) {
     assert_eq!((cpu.width, cpu.height, cpu.object_count), (gpu.width, gpu.height, gpu.object_count));
     let (n, m) = (cpu.radiance.len() as f64, |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>());
     let (mc, mg) = (m(&cpu.radiance) / n, m(&gpu.radiance) / n);
     eprintln!("{name}: mean radiance cpu {mc:.6} gpu {mg:.6}");
-    assert!((mc - mg).abs() <= 1e-4 * mc.abs() + 1e-7, "{name}: image means differ: {mc} vs {mg}");
+    assert!((mc - mg).abs() <= tol.relative * mc.abs() + 1e-7, "{name}: image means differ: {mc} vs {mg}");
     for (aov, c, g) in [
         ("radiance", &cpu.radiance, &gpu.radiance),
         ("depth", &cpu.depth, &gpu.depth),
@@ -150,7 +143,7 @@ fn check_frames(name: &str, cpu: &Frame, gpu: &Frame, spp: u32, exact_aovs: bool
             "{name}: {aov}: {:.4} % within 1e-4, worst difference {rel:.2e} relative, {abs:.2e} absolute",
             100.0 * frac
         );
-        assert!(frac >= 0.999, "{name}: only {:.3} % of {aov} values agree within 1e-4", 100.0 * frac);
+        assert!(frac >= tol.frame_fraction, "{name}: only {:.3} % of {aov} values agree within 1e-4", 100.0 * frac);
     }
     // Any disagreement is confined to single paths: no pixel differs by more than one path could contribute.
     for (i, (&c, &g)) in cpu.radiance.iter().zip(&gpu.radiance).enumerate() {
@@ -160,9 +153,9 @@ fn check_frames(name: &str, cpu: &Frame, gpu: &Frame, spp: u32, exact_aovs: bool
     let same_ids = cpu.object_id.iter().zip(&gpu.object_id).filter(|(a, b)| a == b).count();
     let frac = same_ids as f64 / cpu.object_id.len() as f64;
     eprintln!("{name}: ids {:.4} % identical", 100.0 * frac);
-    assert!(frac >= 0.999, "{name}: only {:.3} % of object ids agree", 100.0 * frac);
+    assert!(frac >= tol.frame_fraction, "{name}: only {:.3} % of object ids agree", 100.0 * frac);
     assert!(gpu.is_finite(), "{name}: the GPU frame has non-finite values");
-    if exact_aovs {
+    if tol.exact {
         assert_eq!(cpu.depth, gpu.depth, "{name}: depth not bit-identical");
         assert_eq!(cpu.normal, gpu.normal, "{name}: normal not bit-identical");
         assert_eq!(cpu.albedo, gpu.albedo, "{name}: albedo not bit-identical");
@@ -181,7 +174,7 @@ fn example_room_agrees_with_the_cpu() {
     let f = features(&s, &SceneData::build(&s).unwrap());
     assert!(f.normal_mapped && f.textured_from.contains(&"png".to_string()), "{f:?}");
     let (cpu, gpu) = render_both(&mut vk, &s);
-    check_frames("room", &cpu, &gpu, 8, exact_device(&vk));
+    check_frames("room", &cpu, &gpu, 8, &psdr_tests::device_agreement(&vk));
 }
 
 #[test]
@@ -192,7 +185,94 @@ fn large_mesh_several_lights_exr_texture_and_deep_paths_agree() {
     assert!(f.triangles > 50_000 && f.emitters >= 2 && f.textured_from.contains(&"exr".to_string()), "{f:?}");
     assert!(s.settings.max_depth >= 4, "deep paths");
     let (cpu, gpu) = render_both(&mut vk, &s);
-    check_frames("large mesh", &cpu, &gpu, s.settings.spp, exact_device(&vk));
+    check_frames("large mesh", &cpu, &gpu, s.settings.spp, &psdr_tests::device_agreement(&vk));
+}
+
+/// The materials stage renders on the run's backend: its light-scale search (albedo divisions and scored
+/// renders) ends at the same scale and albedos on the device as on the CPU. Its renders agree to float rounding
+/// (above) and the search's choices are continuous in them, so the device's bound holds for both (measured:
+/// 1e-7 on lavapipe and on an H100).
+#[test]
+fn light_scale_search_on_the_device_matches_the_cpu() {
+    use psdr::scene::Color;
+    use psdr::stages::{search_light_scale, LightScaleOptions, Segment};
+    let Some(mut vk) = vk() else { return };
+    let mut truth = room(48, 36, 8);
+    for o in truth.objects.iter_mut() {
+        if let Some(e) = o.emitter.as_mut() {
+            e.radiance *= 1.3;
+        }
+    }
+    let photo = CpuBackend.render(&SceneData::build(&truth).unwrap(), &truth.settings, &|_, _| {}).unwrap();
+    // A segment per constant-albedo material: the pixels of the objects made of it alone.
+    let constant = |m: usize| matches!(truth.materials[m].albedo, Color::Constant(_));
+    let segments: Vec<Segment> = (0..truth.materials.len())
+        .filter(|&m| constant(m))
+        .map(|m| {
+            let ids: Vec<u32> = (0..truth.objects.len() as u32)
+                .filter(|&o| truth.objects[o as usize].parts.iter().all(|p| p.material == m))
+                .collect();
+            Segment {
+                material: m,
+                mask: photo.object_id.iter().map(|i| f32::from(u8::from(ids.contains(i)))).collect(),
+            }
+        })
+        .filter(|s| s.mask.iter().sum::<f32>() >= 8.0)
+        .collect();
+    assert!(segments.len() >= 3, "only {} segments", segments.len());
+    let mut start = room(48, 36, 8);
+    for s in &segments {
+        start.materials[s.material].albedo = Color::Constant(glam::Vec3::splat(0.5));
+    }
+    let opts = LightScaleOptions { range: (0.5, 2.0), steps: 5, rounds: 2, spp: 8, downsample: 4 };
+    let (mut on_cpu, mut on_vk) = (start.clone(), start);
+    let a = search_light_scale(&mut CpuBackend, &mut on_cpu, &photo.radiance, &segments, &opts).unwrap();
+    let b = search_light_scale(&mut vk, &mut on_vk, &photo.radiance, &segments, &opts).unwrap();
+    psdr_tests::assert_no_validation_errors(&vk);
+    eprintln!("chosen scale cpu {:?} vk {:?}", a.chosen, b.chosen);
+    let tol = psdr_tests::device_agreement(&vk);
+    for c in 0..3 {
+        let rel = (a.chosen[c] - b.chosen[c]).abs() / a.chosen[c];
+        assert!(
+            f64::from(rel) <= tol.relative,
+            "channel {c}: scale {} on the CPU, {} on the device",
+            a.chosen[c],
+            b.chosen[c]
+        );
+    }
+    for s in &segments {
+        let (Color::Constant(x), Color::Constant(y)) =
+            (on_cpu.materials[s.material].albedo, on_vk.materials[s.material].albedo)
+        else {
+            unreachable!("the division keeps albedos constant")
+        };
+        let rel = ((x - y).abs() / x.max(glam::Vec3::splat(1e-3))).max_element();
+        assert!(
+            f64::from(rel) <= tol.relative,
+            "{}: albedo {x} on the CPU, {y} on the device",
+            on_cpu.materials[s.material].name
+        );
+    }
+}
+
+/// Every kernel's pipeline is created by this device's driver (a driver may refuse what lavapipe accepts), but
+/// the secondary boundary's 64-entry kernel, which a driver may refuse where it builds the 16-entry twin
+/// (NVIDIA's, H100, driver 580.159: VK_ERROR_UNKNOWN for the large one).
+#[test]
+fn every_kernel_is_built_by_the_driver() {
+    let Some(vk) = vk() else { return };
+    let made = vk.create_kernels();
+    for (name, built) in &made {
+        eprintln!("{name}: {}", built.as_ref().map_or_else(|e| e.to_string(), |_| "built".into()));
+    }
+    assert!(made.len() >= 6, "{} kernels", made.len());
+    let small_built = made.iter().any(|(n, b)| *n == "radiance_pose_secondary_small_vjp" && b.is_ok());
+    let refused: Vec<&str> = made
+        .iter()
+        .filter(|(n, b)| b.is_err() && !(*n == "radiance_pose_secondary_vjp" && small_built))
+        .map(|(n, _)| *n)
+        .collect();
+    assert!(refused.is_empty(), "the driver of {} refused {refused:?}", vk.name());
 }
 
 /// Paths of one segment use no sin/cos: on lavapipe the whole frame, radiance included, is bit-identical (this
@@ -204,10 +284,11 @@ fn one_segment_paths_are_bit_identical_on_lavapipe() {
         s.settings.max_depth = 1;
         let (cpu, gpu) = render_both(&mut vk, &s);
         assert!(cpu.radiance.iter().any(|&x| x > 0.0), "{name}: the lights are in view");
-        if exact_device(&vk) {
+        let tol = psdr_tests::device_agreement(&vk);
+        if tol.exact {
             assert_eq!(cpu, gpu, "{name}: one-segment frames differ");
         } else {
-            check_frames(name, &cpu, &gpu, s.settings.spp, false);
+            check_frames(name, &cpu, &gpu, s.settings.spp, &tol);
         }
     }
 }

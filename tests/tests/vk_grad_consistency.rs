@@ -91,7 +91,7 @@ fn direct_light_gradients_agree_with_the_cpu() {
     assert!(p.len() >= 5 && cpu.iter().filter(|g| g.abs() > 0.0).count() >= 6, "{p:?}: {cpu:?}");
     let worst = worst_relative(&cpu, &gpu, 1e-9);
     eprintln!("direct light, {} components: worst relative difference {worst:.2e}", cpu.len());
-    assert!(worst <= 1e-4, "cpu {cpu:?}\ngpu {gpu:?}");
+    assert!(worst <= psdr_tests::device_agreement(&vk).relative, "cpu {cpu:?}\ngpu {gpu:?}");
     psdr_tests::assert_no_validation_errors(&vk);
 }
 
@@ -105,7 +105,7 @@ fn deep_path_gradients_agree_with_the_cpu() {
     let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
     let worst = worst_relative(&cpu, &gpu, 1e-6 * scale);
     eprintln!("deep paths, {} components: worst relative difference {worst:.2e}", cpu.len());
-    assert!(worst <= 1e-4, "cpu {cpu:?}\ngpu {gpu:?}");
+    assert!(worst <= psdr_tests::device_agreement(&vk).relative, "cpu {cpu:?}\ngpu {gpu:?}");
     psdr_tests::assert_no_validation_errors(&vk);
 }
 
@@ -118,11 +118,13 @@ fn paths_that_do_not_flip_give_the_same_gradient() {
     let cpu_frame = psdr::backend::CpuBackend.render(&d, &s.settings, &|_, _| {}).unwrap();
     let gpu_frame = vk.render(&d, &s.settings, &|_, _| {}).unwrap();
     let p = params(&s);
+    // A path that flipped differs entirely; one that did not, by the device's rounding (1e-4 on a GPU).
+    let flip = if psdr_tests::device_agreement(&vk).exact { 1e-5 } else { 1e-3 };
     let layout = GradLayout::new(&s, &p).unwrap();
     let (mut same, mut checked) = (0, 0);
     for pixel in (0..16 * 12).step_by(3) {
         let (a, b) = (&cpu_frame.radiance[3 * pixel..3 * pixel + 3], &gpu_frame.radiance[3 * pixel..3 * pixel + 3]);
-        let flipped = a.iter().zip(b).any(|(x, y)| (x - y).abs() > 1e-5 * x.abs().max(1e-3));
+        let flipped = a.iter().zip(b).any(|(x, y)| (x - y).abs() > flip * x.abs().max(1e-3));
         if flipped {
             continue;
         }
@@ -131,9 +133,13 @@ fn paths_that_do_not_flip_give_the_same_gradient() {
         let cpu = radiance_vjp(&d, &s.settings, &layout, &adjoint).unwrap();
         let gpu = vk.radiance_vjp_on_device(&d, &s.settings, &layout, &adjoint).unwrap().unwrap();
         checked += 1;
-        let worst = worst_relative(&cpu, &gpu, 1e-9);
-        same += usize::from(worst <= 1e-4);
-        assert!(worst <= 1e-4, "pixel {pixel}: cpu {cpu:?}\ngpu {gpu:?}");
+        // On a GPU a small component carries the device's rounding of the large ones (1e-4 of the largest).
+        let tol = psdr_tests::device_agreement(&vk);
+        let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
+        let floor = if tol.exact { 1e-9 } else { tol.absolute / tol.relative * scale };
+        let worst = worst_relative(&cpu, &gpu, floor);
+        same += usize::from(worst <= tol.relative);
+        assert!(worst <= tol.relative, "pixel {pixel}: cpu {cpu:?}\ngpu {gpu:?}");
     }
     eprintln!("{same} of {checked} single-path pixels agree (the others' paths flipped)");
     assert!(checked >= 55, "only {checked} of 64 paths did not flip");
@@ -178,7 +184,7 @@ fn texture_space_gradients_agree_with_the_cpu() {
         let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
         let worst = worst_relative(&cpu, &gpu, 1e-6 * scale);
         eprintln!("texture space ({fields:?}), {} components: worst relative difference {worst:.2e}", cpu.len());
-        assert!(worst <= 1e-4, "cpu {cpu:?}\ngpu {gpu:?}");
+        assert!(worst <= psdr_tests::device_agreement(&vk).relative, "cpu {cpu:?}\ngpu {gpu:?}");
     }
     psdr_tests::assert_no_validation_errors(&vk);
 }
@@ -219,8 +225,11 @@ fn fused_estimator_agrees_with_the_cpu() {
             cpu_image.iter().zip(&gpu_image).map(|(a, b)| (a - b).abs() / a.abs().max(1e-3)).fold(0.0, f32::max);
         eprintln!("fused, {name}: {} components, worst {worst:.2e}; image worst {image_worst:.2e}", cpu.len());
         assert!(cpu.iter().filter(|g| g.abs() > 0.0).count() * 4 >= cpu.len() * 3, "{name}: {cpu:?}");
-        assert!(worst <= 1e-4, "{name}:\ncpu {cpu:?}\ngpu {gpu:?}");
-        assert!(image_worst <= 1e-4, "{name}: images differ by {image_worst}");
+        assert!(worst <= psdr_tests::device_agreement(&vk).relative, "{name}:\ncpu {cpu:?}\ngpu {gpu:?}");
+        assert!(
+            f64::from(image_worst) <= psdr_tests::device_agreement(&vk).relative,
+            "{name}: images differ by {image_worst}"
+        );
     }
     // Through analytic_gradient (an L2 loss takes the fused path on either backend).
     let s = psdr_tests::example_room(24, 18, 4);
@@ -233,7 +242,7 @@ fn fused_estimator_agrees_with_the_cpu() {
     let scale = cpu.mean.iter().map(|g| g.abs()).fold(0.0, f64::max);
     let worst = worst_relative(&cpu.mean, &gpu.mean, 1e-6 * scale);
     eprintln!("fused through analytic_gradient: worst {worst:.2e}");
-    assert!(worst <= 1e-4, "cpu {:?}\ngpu {:?}", cpu.mean, gpu.mean);
+    assert!(worst <= psdr_tests::device_agreement(&vk).relative, "cpu {:?}\ngpu {:?}", cpu.mean, gpu.mean);
     psdr_tests::assert_no_validation_errors(&vk);
 }
 
@@ -270,9 +279,10 @@ fn analytic_gradients_agree_on_either_backend() {
     let opts = psdr::grad::AdOptions { replicas: 2, edge_samples: 0, secondary_edge_samples: 0 };
     let cpu = psdr::grad::analytic_gradient(&s, &p, &loss, &opts, &mut psdr::backend::CpuBackend).unwrap();
     let gpu = psdr::grad::analytic_gradient(&s, &p, &loss, &opts, &mut vk).unwrap();
-    let worst = worst_relative(&cpu.mean, &gpu.mean, 1e-9);
+    let scale = cpu.mean.iter().map(|g| g.abs()).fold(0.0, f64::max);
+    let worst = worst_relative(&cpu.mean, &gpu.mean, 1e-6 * scale);
     eprintln!("analytic_gradient, {} components: worst relative difference {worst:.2e}", cpu.mean.len());
-    assert!(worst <= 1e-4, "cpu {:?}\ngpu {:?}", cpu.mean, gpu.mean);
+    assert!(worst <= psdr_tests::device_agreement(&vk).relative, "cpu {:?}\ngpu {:?}", cpu.mean, gpu.mean);
 }
 
 /// The interior tests' finite-difference checks (tests/tests/grad_interior.rs) on the Vulkan backend: both the

@@ -69,6 +69,7 @@ fn split_worst(cpu: &[f64], gpu: &[f64]) -> (f64, f64) {
 #[test]
 fn every_term_agrees_with_the_cpu() {
     let Some(mut vk) = vk() else { return };
+    let tol = psdr_tests::device_agreement(&vk);
     let (s, p) = room();
     let d = SceneData::build(&s).unwrap();
     let pose = PoseLayout::new(&s, &p).unwrap();
@@ -89,7 +90,7 @@ fn every_term_agrees_with_the_cpu() {
         let worst = worst_relative(&cpu, &gpu);
         eprintln!("{name}: {nonzero} of {} components nonzero, worst relative difference {worst:.2e}", cpu.len());
         assert!(nonzero >= cpu.len() * 3 / 4, "{name}: the test exercises too little: {cpu:?}");
-        assert!(worst <= 1e-4, "{name}:\ncpu {cpu:?}\ngpu {gpu:?}");
+        assert!(worst <= tol.relative, "{name}:\ncpu {cpu:?}\ngpu {gpu:?}");
     }
     psdr_tests::assert_no_validation_errors(&vk);
 }
@@ -97,6 +98,7 @@ fn every_term_agrees_with_the_cpu() {
 #[test]
 fn radiance_primary_boundary_agrees_with_the_cpu() {
     let Some(mut vk) = vk() else { return };
+    let tol = psdr_tests::device_agreement(&vk);
     let (mut s, p) = room();
     s.settings.max_depth = 2;
     let d = SceneData::build(&s).unwrap();
@@ -108,7 +110,7 @@ fn radiance_primary_boundary_agrees_with_the_cpu() {
     let worst = worst_relative(&cpu, &gpu);
     eprintln!("radiance primary boundary: {nonzero} of {} nonzero, worst relative difference {worst:.2e}", cpu.len());
     assert!(nonzero >= cpu.len() * 3 / 4, "the test exercises too little: {cpu:?}");
-    assert!(worst <= 1e-4, "cpu {cpu:?}\ngpu {gpu:?}");
+    assert!(worst <= tol.relative, "cpu {cpu:?}\ngpu {gpu:?}");
     // Pass-size independence.
     vk.set_pass_path_samples(2 * 1000);
     let split = vk.radiance_primary_on_device(&s, &d, &s.settings, &pose, &adjoint, 1 << 13).unwrap().unwrap();
@@ -123,6 +125,7 @@ fn radiance_primary_boundary_agrees_with_the_cpu() {
 #[test]
 fn radiance_interior_agrees_with_the_cpu() {
     let Some(mut vk) = vk() else { return };
+    let tol = psdr_tests::device_agreement(&vk);
     for max_depth in [2, 3] {
         let (mut s, p) = room();
         s.settings.max_depth = max_depth;
@@ -146,7 +149,7 @@ fn radiance_interior_agrees_with_the_cpu() {
             cpu.len()
         );
         assert!(nonzero >= cpu.len() * 3 / 4, "the test exercises too little: {cpu:?}");
-        assert!(worst <= 1e-4 && worst_abs <= 1e-6, "cpu {cpu:?}\ngpu {gpu:?}");
+        assert!(worst <= tol.relative && worst_abs <= tol.absolute, "cpu {cpu:?}\ngpu {gpu:?}");
         vk.set_pass_path_samples(4 * 100);
         let split = vk.radiance_pose_interior_on_device(&s, &d, &s.settings, &pose, &adjoint, 0).unwrap().unwrap();
         assert_eq!(gpu, split, "pass-size independence");
@@ -164,32 +167,53 @@ fn radiance_interior_agrees_with_the_cpu() {
 #[test]
 fn secondary_boundary_agrees_with_the_cpu() {
     let Some(mut vk) = vk() else { return };
-    for max_depth in [2, 3] {
-        let (mut s, p) = room();
-        s.settings.max_depth = max_depth;
-        let d = SceneData::build(&s).unwrap();
-        let pose = PoseLayout::new(&s, &p).unwrap();
-        let adjoint = random_image(48 * 36 * 3, 7);
-        let samples = psdr::grad::BoundarySamples { primary: 0, secondary: 1 };
-        let mut cpu_backend = psdr::backend::CpuBackend;
-        let cpu =
-            psdr::grad::radiance_pose_vjp(&s, &d, &s.settings, &pose, &adjoint, samples, &mut cpu_backend).unwrap();
-        // Through the backend: the device's interior and path-vertex secondary term, plus the light-side shadow
-        // term both backends compute on the host.
-        let gpu = psdr::grad::radiance_pose_vjp(&s, &d, &s.settings, &pose, &adjoint, samples, &mut vk).unwrap();
-        let off = psdr::grad::BoundarySamples { primary: 0, secondary: 0 };
-        let interior =
-            psdr::grad::radiance_pose_vjp(&s, &d, &s.settings, &pose, &adjoint, off, &mut cpu_backend).unwrap();
-        let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
-        let moved = cpu.iter().zip(&interior).filter(|(a, b)| (*a - *b).abs() > 1e-3 * scale).count();
-        let (worst, worst_abs) = split_worst(&cpu, &gpu);
-        eprintln!(
-            "secondary, max_depth {max_depth}: the term moves {moved} of {} components; worst relative {worst:.2e}, \
-             worst absolute {worst_abs:.2e} of the largest",
-            cpu.len()
-        );
-        assert!(moved >= cpu.len() / 3, "the secondary term must matter here: {cpu:?} vs interior {interior:?}");
-        assert!(worst <= 1e-4 && worst_abs <= 1e-6, "cpu {cpu:?}\ngpu {gpu:?}");
+    let tol = psdr_tests::device_agreement(&vk);
+    // The 64-entry kernel with every pose component (30), then the 16-entry one (what NVIDIA's driver builds)
+    // with the table's and the chair's translation, yaw and scale (14).
+    for small in [false, true] {
+        vk.set_small_secondary_only(small);
+        for max_depth in [2, 3] {
+            let (mut s, mut p) = room();
+            if small {
+                let wanted = |o: &str, c: &str| format!("object/{o}/{c}").parse::<ParamPath>().unwrap();
+                p = ["table", "chair"]
+                    .iter()
+                    .flat_map(|o| ["translation", "yaw", "scale"].map(|c| wanted(o, c)))
+                    .collect();
+            }
+            s.settings.max_depth = max_depth;
+            let d = SceneData::build(&s).unwrap();
+            let pose = PoseLayout::new(&s, &p).unwrap();
+            let adjoint = random_image(48 * 36 * 3, 7);
+            // The device's kernel takes the term (not the CPU reference it falls back to), except the large one
+            // on a driver that refuses it.
+            let on_device = vk.radiance_pose_interior_on_device(&s, &d, &s.settings, &pose, &adjoint, 1).unwrap();
+            if on_device.is_none() && !small && !tol.exact {
+                eprintln!("secondary: {} refuses the 64-entry kernel", psdr::backend::Backend::name(&vk));
+                continue;
+            }
+            assert!(on_device.is_some(), "small {small}, max_depth {max_depth}: the device left the term to the CPU");
+            let samples = psdr::grad::BoundarySamples { primary: 0, secondary: 1 };
+            let mut cpu_backend = psdr::backend::CpuBackend;
+            let cpu =
+                psdr::grad::radiance_pose_vjp(&s, &d, &s.settings, &pose, &adjoint, samples, &mut cpu_backend).unwrap();
+            // Through the backend: the device's interior and path-vertex secondary term, plus the light-side
+            // shadow term both backends compute on the host.
+            let gpu = psdr::grad::radiance_pose_vjp(&s, &d, &s.settings, &pose, &adjoint, samples, &mut vk).unwrap();
+            let off = psdr::grad::BoundarySamples { primary: 0, secondary: 0 };
+            let interior =
+                psdr::grad::radiance_pose_vjp(&s, &d, &s.settings, &pose, &adjoint, off, &mut cpu_backend).unwrap();
+            let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);
+            let moved = cpu.iter().zip(&interior).filter(|(a, b)| (*a - *b).abs() > 1e-3 * scale).count();
+            let (worst, worst_abs) = split_worst(&cpu, &gpu);
+            eprintln!(
+                "secondary, small kernel {small}, max_depth {max_depth}: the term moves {moved} of {} components; \
+                 worst relative {worst:.2e}, worst absolute {worst_abs:.2e} of the largest",
+                cpu.len()
+            );
+            assert!(moved >= cpu.len() / 3, "the secondary term must matter here: {cpu:?} vs interior {interior:?}");
+            assert!(worst <= tol.relative && worst_abs <= tol.absolute, "cpu {cpu:?}\ngpu {gpu:?}");
+        }
     }
     psdr_tests::assert_no_validation_errors(&vk);
 }
@@ -308,6 +332,7 @@ fn gradient_does_not_depend_on_the_pass_size() {
 #[test]
 fn vertex_parameters_agree_with_the_cpu() {
     let Some(mut vk) = vk() else { return };
+    let tol = psdr_tests::device_agreement(&vk);
     let (mut s, _) = room();
     s.settings.max_depth = 2;
     let d = SceneData::build(&s).unwrap();
@@ -347,7 +372,7 @@ fn vertex_parameters_agree_with_the_cpu() {
         );
         // (The vase has 2084 welded vertices; those on its silhouette, or hit by paths, have gradients.)
         assert!(nonzero >= 50, "{name}: the test exercises too little");
-        assert!(worst <= 1e-4 && worst_abs <= 1e-6, "{name}:\ncpu {cpu:?}\ngpu {gpu:?}");
+        assert!(worst <= tol.relative && worst_abs <= tol.absolute, "{name}:\ncpu {cpu:?}\ngpu {gpu:?}");
     }
     // The secondary boundary with vertex parameters (and the interior it feeds on), with one more bounce: with
     // direct light only, the device's path-vertex term leaves every camera-visible shadow to the host's
@@ -357,10 +382,15 @@ fn vertex_parameters_agree_with_the_cpu() {
     let samples = psdr::grad::BoundarySamples { primary: 0, secondary: 1 };
     let cpu = psdr::grad::radiance_pose_vjp(&s, &d, &s.settings, &pose, &radiance, samples, &mut cpu_backend).unwrap();
     let gpu = psdr::grad::radiance_pose_vjp(&s, &d, &s.settings, &pose, &radiance, samples, &mut vk).unwrap();
+    // Lavapipe builds the 64-entry secondary kernel, which takes a vertex block's paths; a driver with only the
+    // 16-entry one leaves them to the CPU (the comparison then holds trivially).
+    let on_device = vk.radiance_pose_interior_on_device(&s, &d, &s.settings, &pose, &radiance, 1).unwrap().is_some();
+    eprintln!("vertices, secondary: on the device: {on_device}");
+    assert!(on_device || !tol.exact, "lavapipe left the vertices' secondary term to the CPU");
     let (worst, worst_abs) = split_worst(&cpu, &gpu);
     let nonzero = cpu.iter().filter(|g| g.abs() > 0.0).count();
     eprintln!("vertices, secondary: {nonzero} nonzero, worst relative {worst:.2e}, absolute {worst_abs:.2e}");
-    assert!(worst <= 1e-4 && worst_abs <= 1e-6, "secondary:\ncpu {cpu:?}\ngpu {gpu:?}");
+    assert!(worst <= tol.relative && worst_abs <= tol.absolute, "secondary:\ncpu {cpu:?}\ngpu {gpu:?}");
     // An occluder the camera never sees: its vertices' whole gradient is the secondary boundary (its shadow: the
     // host's light-side samples, and the device's for the light bounced once more).
     let s = grad_common::scenes::shadow_scene(3);
@@ -373,7 +403,7 @@ fn vertex_parameters_agree_with_the_cpu() {
     let worst = cpu.iter().zip(&gpu).map(|(a, b)| (a - b).abs() / (a.abs() + 1e-6 * scale)).fold(0.0, f64::max);
     let nonzero = cpu.iter().filter(|g| g.abs() > 0.0).count();
     eprintln!("vertices, shadow only: {nonzero} of {} nonzero, worst relative {worst:.2e}", cpu.len());
-    assert!(nonzero >= cpu.len() / 2 && worst <= 1e-4, "shadow:\ncpu {cpu:?}\ngpu {gpu:?}");
+    assert!(nonzero >= cpu.len() / 2 && worst <= tol.relative, "shadow:\ncpu {cpu:?}\ngpu {gpu:?}");
     psdr_tests::assert_no_validation_errors(&vk);
 }
 

@@ -27,10 +27,13 @@ pub struct VkBackend {
     pub(super) aov_vjp: LazyKernel<super::vk_aov::AovParams>,
     /// The primary boundary of radiance for poses (shaders/grad/vjp/radiance_pose.comp).
     pub(super) radiance_pose_vjp: LazyKernel<super::vk_radiance_pose::RadiancePoseParams>,
-    /// The same with the secondary boundary (shaders/grad/vjp/radiance_pose_secondary.comp); `None` on a device
-    /// without shaderFloat64.
-    pub(super) radiance_pose_secondary_vjp: Option<LazyKernel<super::vk_radiance_pose::RadiancePoseParams>>,
+    /// The same with the secondary boundary (shaders/grad/vjp/radiance_pose_secondary.comp, 64 entries per path,
+    /// and radiance_pose_secondary_small.comp, 16, for drivers that refuse the first); `None` on a device without
+    /// shaderFloat64.
+    pub(super) radiance_pose_secondary_vjp: Option<[LazyKernel<super::vk_radiance_pose::RadiancePoseParams>; 2]>,
     pub(super) pass_path_samples: u64,
+    /// Only the 16-entry secondary kernel, as on a driver that refuses the 64-entry one (for tests).
+    pub(super) small_secondary_only: bool,
 }
 
 /// A kernel whose pipeline is created at its first use. Creating one costs 0.2-3 s on lavapipe (its LLVM
@@ -40,7 +43,8 @@ pub(super) struct LazyKernel<P: bytemuck::Pod> {
     name: &'static str,
     words: Vec<u32>,
     buffers: u32,
-    kernel: std::sync::OnceLock<Kernel<P>>,
+    /// The pipeline, or why the driver refused it (kept, so a refused kernel is not compiled again per call).
+    kernel: std::sync::OnceLock<std::result::Result<Kernel<P>, String>>,
 }
 
 impl<P: bytemuck::Pod> LazyKernel<P> {
@@ -58,13 +62,11 @@ impl<P: bytemuck::Pod> LazyKernel<P> {
 
     /// The kernel, created on `ctx` the first time it is asked for.
     pub(super) fn get(&self, ctx: &Context) -> Result<&Kernel<P>> {
-        if let Some(k) = self.kernel.get() {
-            return Ok(k);
-        }
-        let k = Kernel::new(ctx, self.name, &self.words, self.buffers).map_err(backend_error)?;
-        // Another thread may have set it meanwhile: both are the same pipeline, either will do.
-        let _ = self.kernel.set(k);
-        Ok(self.kernel.get().expect("set above"))
+        // Two threads may both create it: both are the same pipeline, either will do.
+        let made = self.kernel.get_or_init(|| {
+            Kernel::new(ctx, self.name, &self.words, self.buffers).map_err(|e| format!("{}: {e}", self.name))
+        });
+        made.as_ref().map_err(|e| Error::Backend(e.clone()))
     }
 }
 
@@ -124,13 +126,22 @@ impl VkBackend {
             15,
         )?;
         let radiance_pose_secondary_vjp = if ctx.capabilities().shader_float64 {
-            Some(LazyKernel::new(
-                dir,
-                "radiance_pose_secondary_vjp",
-                "grad/vjp/radiance_pose_secondary",
-                psdr_vk::include_spirv!("grad/vjp/radiance_pose_secondary"),
-                18,
-            )?)
+            Some([
+                LazyKernel::new(
+                    dir,
+                    "radiance_pose_secondary_vjp",
+                    "grad/vjp/radiance_pose_secondary",
+                    psdr_vk::include_spirv!("grad/vjp/radiance_pose_secondary"),
+                    18,
+                )?,
+                LazyKernel::new(
+                    dir,
+                    "radiance_pose_secondary_small_vjp",
+                    "grad/vjp/radiance_pose_secondary_small",
+                    psdr_vk::include_spirv!("grad/vjp/radiance_pose_secondary_small"),
+                    18,
+                )?,
+            ])
         } else {
             None
         };
@@ -143,6 +154,7 @@ impl VkBackend {
             radiance_pose_vjp,
             radiance_pose_secondary_vjp,
             pass_path_samples: PASS_PATH_SAMPLES,
+            small_secondary_only: false,
         })
     }
 
@@ -151,8 +163,35 @@ impl VkBackend {
         self.pass_path_samples = n;
     }
 
+    /// Uses only the secondary boundary's 16-entry kernel, which a driver that refuses the 64-entry one runs
+    /// (NVIDIA's), so that any device can compare it with the CPU.
+    pub fn set_small_secondary_only(&mut self, on: bool) {
+        self.small_secondary_only = on;
+    }
+
     pub fn context(&self) -> &Context {
         &self.ctx
+    }
+
+    /// Creates every kernel's pipeline now (they are made at first use otherwise): each kernel's name and
+    /// whether its driver built it. A device check: a driver may refuse a kernel that lavapipe accepts.
+    pub fn create_kernels(&self) -> Vec<(&'static str, Result<()>)> {
+        let ctx = &self.ctx;
+        let mut out = vec![
+            (self.path_trace.name, self.path_trace.get(ctx).map(drop)),
+            (self.material_light_vjp.name, self.material_light_vjp.get(ctx).map(drop)),
+            (self.fused_l2_vjp.name, self.fused_l2_vjp.get(ctx).map(drop)),
+            (self.aov_vjp.name, self.aov_vjp.get(ctx).map(drop)),
+            (self.radiance_pose_vjp.name, self.radiance_pose_vjp.get(ctx).map(drop)),
+        ];
+        // The small secondary kernel only matters where the large one is refused.
+        if let Some([large, small]) = &self.radiance_pose_secondary_vjp {
+            out.push((large.name, large.get(ctx).map(drop)));
+            if out.last().is_some_and(|(_, r)| r.is_err()) {
+                out.push((small.name, small.get(ctx).map(drop)));
+            }
+        }
+        out
     }
 }
 

@@ -42,9 +42,10 @@ pub struct RadiancePoseParams {
     pub moving_emits: u32,
 }
 
-/// Pose entries whose vertex velocities the secondary kernel keeps per path (MAX_ACTIVE in
-/// shaders/grad/interior/geometry.glsl).
-pub const MAX_ACTIVE: usize = 64;
+/// Pose entries whose vertex velocities the secondary kernels keep per path (MAX_ACTIVE_ENTRIES in
+/// shaders/grad/vjp/radiance_pose_secondary.comp and _small.comp): the large kernel, and the small one for
+/// drivers that refuse the large one's private arrays (NVIDIA's).
+pub const SECONDARY_MAX_ACTIVE: [usize; 2] = [64, 16];
 
 /// Set to 1 to let a device that lacks a feature a gradient kernel needs leave that term to the CPU.
 pub const CPU_FALLBACK_ENV: &str = "PSDR_VK_CPU_FALLBACK";
@@ -108,7 +109,7 @@ impl VkBackend {
 
     /// The interior term of `grad::radiance_pose_vjp` (its ray-form replay) on the device, with the secondary
     /// boundary (`secondary_samples` per scattering vertex) when it is asked for; `Ok(None)` when the secondary
-    /// term is asked for and more than MAX_ACTIVE entries could touch one path (its kernel keeps each active
+    /// term is asked for and more entries could touch one path than the secondary kernel the driver builds keeps (SECONDARY_MAX_ACTIVE) (its kernel keeps each active
     /// entry's vertex velocities), or when the device lacks shaderFloat64 (its edge-tree descent is in double
     /// precision).
     pub fn radiance_pose_interior_on_device(
@@ -137,9 +138,26 @@ impl VkBackend {
             note_once("the Vulkan device lacks shaderFloat64: the secondary boundary runs on the CPU");
             return Ok(None);
         }
-        if secondary_samples > 0 && most_active > MAX_ACTIVE {
-            // Not a device limit but this kernel's: the CPU reference takes the term (every backend computes it).
-            return Ok(None);
+        // The secondary kernel this device builds (the large one, else the small one), and how many entries per
+        // path it keeps. A path that could have more is not a device limit but the kernel's: the CPU reference
+        // takes the term (every backend computes it alike), as where the driver builds neither.
+        let mut secondary = None;
+        if let (true, Some(kernels)) = (secondary_samples > 0, self.radiance_pose_secondary_vjp.as_ref()) {
+            let skip = usize::from(self.small_secondary_only);
+            let built =
+                kernels.iter().zip(SECONDARY_MAX_ACTIVE).skip(skip).find_map(|(k, cap)| match k.get(&self.ctx) {
+                    Ok(k) => Some((k, cap)),
+                    Err(e) => {
+                        note_once(&format!(
+                            "{e}: the device takes the secondary boundary's smaller kernel, or the CPU"
+                        ));
+                        None
+                    }
+                });
+            match built {
+                Some((kernel, cap)) if most_active <= cap => secondary = Some(kernel),
+                _ => return Ok(None),
+            }
         }
         let pixels = (d.camera.width * d.camera.height) as usize;
         check_image(d, adjoint, "adjoint image")?;
@@ -195,7 +213,7 @@ impl VkBackend {
         ];
         let tail: Vec<&dyn StorageBinding> =
             tail.iter().map(|b| b.as_ref()).chain([&corners as &dyn StorageBinding]).collect();
-        let kernel = self.radiance_pose_secondary_vjp.as_ref().expect("checked above").get(&self.ctx)?;
+        let kernel = secondary.expect("chosen above when secondary samples are asked for");
         let push = |begin, count| RadiancePoseParams { begin, count, ..params };
         rows_in_order(ctx, kernel, &inputs, &tail, push, pixels, per_pass, &mut grad)?;
         Ok(Some(grad))

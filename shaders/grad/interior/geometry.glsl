@@ -19,8 +19,11 @@
 #include "grad/path/record.glsl"
 
 // At most this many pose entries touch one path when their vertex velocities are kept for the secondary
-// boundary (WITH_SECONDARY; the host checks the entry count).
-const uint MAX_ACTIVE = 64u;
+// boundary (WITH_SECONDARY; the host checks the entry count). A kernel may set it lower (MAX_ACTIVE_ENTRIES).
+#ifndef MAX_ACTIVE_ENTRIES
+#define MAX_ACTIVE_ENTRIES 64u
+#endif
+const uint MAX_ACTIVE = MAX_ACTIVE_ENTRIES;
 // The entries that touch the recorded path (a pose entry, and for a vertex block the welded vertex and axis; NONE
 // for a pose component), and dx_k/dθ of its vertices under each (slot j, vertex k at j * MAX_RECORD_DEPTH + k),
 // written by replay_radiance.
