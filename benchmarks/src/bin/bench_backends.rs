@@ -83,6 +83,9 @@ struct Args {
     /// Output CSV (the SVG goes next to it).
     #[arg(default_value_os_t = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/backends.csv"))]
     out: std::path::PathBuf,
+    /// Adds the sizes of real photos' working images, 512x384 at 16 and 64 spp (on a GPU; minutes on lavapipe).
+    #[arg(long)]
+    large: bool,
 }
 
 /// Edge samples of the AOV adjoint's silhouette term (the optimiser's default).
@@ -122,7 +125,8 @@ fn aov_adjoint_best_of(
 }
 
 fn main() -> anyhow::Result<()> {
-    let out = <Args as clap::Parser>::parse().out;
+    let args = <Args as clap::Parser>::parse();
+    let out = args.out;
     let mut vk = VkBackend::new(None)?;
     let mut cpu = CpuBackend;
     let mut csv = String::from(
@@ -130,12 +134,17 @@ fn main() -> anyhow::Result<()> {
          rel_diff_vs_other_backend,load_avg_1m\n",
     );
     let mut bars = vec![];
-    let cases: Vec<(&str, Scene)> = vec![
+    let mut cases: Vec<(&str, Scene)> = vec![
         ("room", room(128, 96, 16)?),
         ("room", room(256, 192, 16)?),
         ("room_large_mesh", room_large_mesh(128, 96, 16)?),
         ("room_large_mesh", room_large_mesh(256, 192, 16)?),
     ];
+    if args.large {
+        cases.push(("room", room(512, 384, 16)?));
+        cases.push(("room", room(512, 384, 64)?));
+        cases.push(("room_large_mesh", room_large_mesh(512, 384, 64)?));
+    }
     for (name, s) in cases {
         let d = SceneData::build(&s)?;
         let (t_cpu, f_cpu) = best_of(&mut cpu, &d, &s, 3)?;
@@ -153,7 +162,7 @@ fn main() -> anyhow::Result<()> {
             csv += &format!(
                 "{name},{w},{h},{spp},{tris},primal,{backend},\"{device}\",{t:.4},{mpaths:.3},{mrays:.3},{rel:.2e},{load}\n"
             );
-            bars.push((format!("primal {name} {w}x{h}"), backend, mpaths));
+            bars.push((format!("primal {name} {w}x{h} {spp} spp"), backend, mpaths));
         }
         let (t_cpu, g_cpu) = adjoint_best_of(&mut cpu, &d, &s, 3)?;
         let (t_vk, g_vk) = adjoint_best_of(&mut vk, &d, &s, 3)?;
@@ -168,7 +177,7 @@ fn main() -> anyhow::Result<()> {
             csv += &format!(
                 "{name},{w},{h},{spp},{tris},adjoint,{backend},\"{device}\",{t:.4},{mpaths:.3},,{rel:.2e},{load}\n"
             );
-            bars.push((format!("adjoint {name} {w}x{h}"), backend, mpaths));
+            bars.push((format!("adjoint {name} {w}x{h} {spp} spp"), backend, mpaths));
         }
         // Depth and masks for poses: camera rays per second (pixel samples plus two per edge sample).
         let (t_cpu, g_cpu) = aov_adjoint_best_of(&mut cpu, &d, &s, 3)?;
@@ -185,7 +194,7 @@ fn main() -> anyhow::Result<()> {
             csv += &format!(
                 "{name},{w},{h},{spp},{tris},aov_adjoint,{backend},\"{device}\",{t:.4},{mpaths:.3},,{rel:.2e},{load}\n"
             );
-            bars.push((format!("aov adjoint {name} {w}x{h}"), backend, mpaths));
+            bars.push((format!("aov adjoint {name} {w}x{h} {spp} spp"), backend, mpaths));
         }
     }
     if let Some(dir) = out.parent() {
