@@ -1,6 +1,8 @@
 //! The top of `report.html`: the photo, the final render and their difference side by side, the evaluation
 //! against a truth when the run had one (`--set truth=...`), the fitted emitters (lights, windows) with
-//! their radiances, and the lights each fit removed (`lights_removed` in result.json).
+//! their radiances, the lights each fit removed (`lights_removed` in result.json), and the camera's side of the
+//! photo: its exposure and white balance, which psdr absorbs into the lights (the light-scale search's factor
+//! per channel), and the share of clipped pixels the photometric fits left out.
 
 use super::html::ReportImage;
 use crate::base::Image;
@@ -89,7 +91,44 @@ pub fn build_summary(out: &Path, photo: &Path, render: &Path, scene: &Scene, rec
             rows,
         });
     }
+    let camera = camera_rows(photo.as_ref(), recorded);
+    if !camera.is_empty() {
+        summary.tables.push(SummaryTable {
+            title: "The camera's side of the photo".into(),
+            header: vec!["quantity".into(), "value".into()],
+            rows: camera,
+        });
+    }
     summary
+}
+
+/// Exposure and white balance are not fitted apart: they are absorbed into the lights' radiances, whose common
+/// scale per channel the light-scale search chose (a white light under a warm white balance fits as a warm
+/// light); and the photo's clipped pixels, left out of every photometric fit.
+fn camera_rows(photo: Option<&Image>, recorded: &Map<String, Value>) -> Vec<Vec<String>> {
+    let mut rows = vec![];
+    let chosen: Vec<f64> = recorded
+        .get("light_scale")
+        .and_then(|s| s["chosen"].as_array())
+        .into_iter()
+        .flatten()
+        .filter_map(Value::as_f64)
+        .collect();
+    if let [r, g, b] = chosen[..] {
+        rows.push(vec![
+            "exposure x white balance, absorbed into the lights (their common scale R, G, B)".into(),
+            format!("{r:.3}, {g:.3}, {b:.3}"),
+        ]);
+    }
+    if let Some(p) = photo.filter(|p| p.channels == 3 && p.width > 0) {
+        let unclipped = crate::vision::unclipped(&p.data, p.width);
+        let clipped = unclipped.iter().filter(|&&u| u == 0.0).count();
+        rows.push(vec![
+            "photo pixels clipped or next to clipped (left out of the photometric fits)".into(),
+            format!("{:.2} %", 100.0 * clipped as f64 / unclipped.len().max(1) as f64),
+        ]);
+    }
+    rows
 }
 
 /// Writes |render - photo| to `path` with the photo brought to the render's size (a working size of it);
@@ -166,6 +205,21 @@ mod tests {
         let b = Image { width: 2, height: 1, channels: 3, data: vec![0.2; 6] };
         assert!(difference(&a, &b).unwrap().data.iter().all(|&v| (v - 0.3).abs() < 1e-6));
         assert!(difference(&a, &shrink(&img)).is_none());
+    }
+
+    #[test]
+    fn the_camera_rows_state_the_absorbed_exposure_and_the_clipped_share() {
+        let recorded: Map<String, Value> =
+            serde_json::from_value(serde_json::json!({"light_scale": {"chosen": [0.5, 1.0, 2.0]}})).unwrap();
+        // An 8-bit photo (values on the sRGB steps) with its top-left pixel at white.
+        let mut data: Vec<f32> = (0..16 * 3).map(|i| crate::base::srgb_to_linear((i % 200) as f32 / 255.0)).collect();
+        data[..3].fill(1.0);
+        let photo = Image { width: 4, height: 4, channels: 3, data };
+        let rows = camera_rows(Some(&photo), &recorded);
+        assert_eq!(rows[0][1], "0.500, 1.000, 2.000");
+        // The white pixel and its three neighbours in the 4x4 photo.
+        assert_eq!(rows[1][1], "25.00 %");
+        assert!(camera_rows(None, &Map::new()).is_empty());
     }
 
     #[test]
