@@ -14,6 +14,7 @@ pub mod known_geometry;
 pub mod real_rooms;
 pub mod rooms;
 pub mod sweet_home;
+pub mod texture_queries;
 
 /// An empty scene seen by a look-at camera.
 pub fn empty_scene(camera: Camera, settings: RenderSettings) -> Scene {

@@ -16,47 +16,12 @@
 //! family x top-1 family, family = the graph's `category`, plus a wood / not-wood block) and
 //! `texture_search.svg` (top-1 and top-3 accuracy per family and per variant).
 
-use psdr::loss::Image;
-use psdr::stages::{contrast, library_textures, search_materials_with, view_at, LibraryTexture, UvGrid};
+use psdr::stages::{contrast, library_textures, search_materials_with};
 use psdr_materials::library;
+use psdr_tests::texture_queries::{facing_grid, query, Variant, VARIANTS, WOOD};
 use psdr_tests::SplitMix64;
 use std::collections::BTreeMap;
 use std::time::Instant;
-
-/// Library materials that show wood (boards, parquet, veneer, grain); the categories say where a material is
-/// used (floor, wall, furniture), not what it is, so wood is named here.
-const WOOD: [&str; 10] = [
-    "herringbone_dark",
-    "herringbone_parquet",
-    "laminate",
-    "oak_planks",
-    "painted_wood",
-    "pine_planks",
-    "walnut_planks",
-    "walnut_veneer",
-    "wood_grain",
-    "wood_paneling",
-];
-
-/// One way of seeing a material: uv repeats across the crop, rotation, light gain per channel (not divided
-/// out), relative gaussian noise.
-struct Variant {
-    name: &'static str,
-    scale: f32,
-    rotation_deg: f32,
-    gain: [f32; 3],
-    noise: f32,
-}
-
-const VARIANTS: [Variant; 7] = [
-    Variant { name: "base", scale: 2.0, rotation_deg: 0.0, gain: [1.0; 3], noise: 0.02 },
-    Variant { name: "rot30", scale: 2.0, rotation_deg: 30.0, gain: [1.0; 3], noise: 0.02 },
-    Variant { name: "dim_warm", scale: 2.0, rotation_deg: 0.0, gain: [0.55, 0.5, 0.45], noise: 0.02 },
-    Variant { name: "bright_cool", scale: 2.0, rotation_deg: 0.0, gain: [1.5, 1.6, 1.75], noise: 0.02 },
-    Variant { name: "fine_rot90", scale: 4.5, rotation_deg: 90.0, gain: [1.0; 3], noise: 0.02 },
-    Variant { name: "coarse", scale: 1.2, rotation_deg: 0.0, gain: [1.0; 3], noise: 0.02 },
-    Variant { name: "mixed", scale: 3.0, rotation_deg: 30.0, gain: [0.75, 0.7, 0.62], noise: 0.04 },
-];
 
 /// Top-1 / top-3 accuracy of the search on every library material under varied scale, rotation and light.
 #[derive(clap::Parser)]
@@ -87,44 +52,6 @@ struct Args {
     /// Seed of the photo noise.
     #[arg(long, default_value_t = 7)]
     seed: u64,
-}
-
-/// A `size` x `size` crop of a surface facing the camera, uv 0..1 across it, `samples`^2 rays per pixel (as
-/// `surface_textures::uv_grid` gives for such a surface).
-fn grid(size: usize, samples: usize) -> UvGrid {
-    let s = samples.max(1);
-    let uvs = (0..size * size)
-        .map(|p| {
-            let (x, y) = ((p % size) as f64, (p / size) as f64);
-            let mut px = Vec::with_capacity(s * s);
-            for j in 0..s {
-                for i in 0..s {
-                    let (sx, sy) = ((i as f64 + 0.5) / s as f64, (j as f64 + 0.5) / s as f64);
-                    px.push([(x + sx) / size as f64, 1.0 - (y + sy) / size as f64]);
-                }
-            }
-            px
-        })
-        .collect();
-    UvGrid { width: size, height: size, uvs }
-}
-
-fn gaussian(rng: &mut SplitMix64) -> f32 {
-    let u1 = rng.next_f32().max(1e-7);
-    let u2 = rng.next_f32();
-    (-2.0 * u1.ln()).sqrt() * (std::f32::consts::TAU * u2).cos()
-}
-
-/// The query: the material through the variant's transform, under its light gain, with noise, clamped to 0..1
-/// as the pipeline's albedo crop is.
-fn query(tex: &LibraryTexture, v: &Variant, camera: &UvGrid, rng: &mut SplitMix64) -> Image {
-    let mut img = view_at(tex, v.scale, v.rotation_deg, camera);
-    for p in img.data.chunks_mut(3) {
-        for (x, g) in p.iter_mut().zip(v.gain) {
-            *x = (*x * g * (1.0 + v.noise * gaussian(rng))).clamp(0.0, 1.0);
-        }
-    }
-    img
 }
 
 struct Row {
@@ -165,8 +92,8 @@ fn main() -> anyhow::Result<()> {
     }
     let fam = |n: &str| family.get(n).cloned().unwrap_or_default();
     let is_wood = |n: &str| WOOD.contains(&n);
-    let camera = grid(args.crop, 4);
-    let search_grid = grid(args.crop, args.samples);
+    let camera = facing_grid(args.crop, 4);
+    let search_grid = facing_grid(args.crop, args.samples);
     let n = if args.limit == 0 { lib.len() } else { args.limit.min(lib.len()) };
     // The plan: (material, variant) pairs.
     let others = variants.len() - 1;

@@ -2,9 +2,9 @@
 //! search and texture-transform search, weight-free here): every library material's albedo at default
 //! parameters is viewed through a texture transform over a crop-sized patch (uv 0..1), and compared with the
 //! crop by the scale-free texture descriptor loss (Gram matrices of a fixed filter bank, `loss::texture_loss`)
-//! plus the relative distance of the mean colours. A first pass ranks the library at a few scales; the leaders
-//! then get the transform search (scales 0.5-8 in steps of 2^(1/4), rotations -45, 0, 45, 90 degrees, then the
-//! scale refined around the best in steps of 2^(1/16) and 2^(1/32)). Crops
+//! plus the distance of the mean colours (chromaticity, and weakly brightness). A first pass ranks the library
+//! at a few scales; the leaders then get the transform search (scales 0.5-8 in steps of 2^(1/4), rotations -45,
+//! 0, 45, 90 degrees, then the scale refined around the best in steps of 2^(1/16) and 2^(1/32)). Crops
 //! should be albedo: the photo's colour divided by the shading the fitted lights give (see the caller).
 
 use super::texture_view::{texture_view, UvGrid};
@@ -53,8 +53,9 @@ pub struct MaterialMatch {
     pub name: String,
     pub scale: f32,
     pub rotation_deg: f32,
-    /// Texture descriptor loss (at the crop's colour and contrast) + `colour_weight` x relative mean-colour
-    /// distance + |ln| of the fineness ratio + |ln| of the contrast ratio (lower is better).
+    /// Texture descriptor loss (at the crop's colour and contrast) + `colour_weight` x mean-colour distance
+    /// (chromaticity, and half the |ln| of the brightness ratio) + |ln| of the fineness ratio + |ln| of the
+    /// contrast ratio (lower is better).
     pub distance: f32,
     /// The descriptor loss alone.
     pub texture_distance: f32,
@@ -115,8 +116,7 @@ pub fn contrast(img: &Image) -> f32 {
 fn distance(crop: &Tensor, crop_stats: &CropStats, mut view: Image, colour_weight: f32) -> Result<(f32, f32)> {
     let m = mean(&view);
     let crop_mean = crop_stats.mean;
-    let norm = crop_mean.iter().map(|v| v * v).sum::<f32>().sqrt().max(1e-4);
-    let colour = (0..3).map(|c| (m[c] - crop_mean[c]).powi(2)).sum::<f32>().sqrt() / norm;
+    let colour = colour_distance(m, crop_mean);
     let scale = (fineness(&view).max(1e-6) / crop_stats.fineness.max(1e-6)).ln().abs();
     let view_contrast = contrast(&view).max(1e-6);
     let contrast_error = (view_contrast / crop_stats.contrast.max(1e-6)).ln().abs();
@@ -126,6 +126,17 @@ fn distance(crop: &Tensor, crop_stats: &CropStats, mut view: Image, colour_weigh
     }
     let tex = texture_loss(&Tensor::constant(view), crop)?.item().unwrap_or(f32::INFINITY);
     Ok((tex + colour_weight * colour + scale + contrast_error, tex))
+}
+
+/// How far two mean colours are, as a light left in the crop would move them least: the distance of their
+/// chromaticities (each channel over the mean of the three) plus half the |ln| of their brightness ratio. A gain
+/// g on the crop costs |ln g| / 2 whichever way (0.35 for 0.5 and for 2); the relative RGB distance it replaces
+/// cost 1.0 for a gain of 0.5 and 0.4 for 1.6, so dim crops lost their own material (bench_texture_search).
+fn colour_distance(a: [f32; 3], b: [f32; 3]) -> f32 {
+    let lum = |c: [f32; 3]| (c.iter().sum::<f32>() / 3.0).max(1e-4);
+    let (la, lb) = (lum(a), lum(b));
+    let chroma = (0..3).map(|c| (a[c] / la - b[c] / lb).powi(2)).sum::<f32>().sqrt();
+    chroma + 0.5 * (la / lb).ln().abs()
 }
 
 /// What the distance needs of the crop, computed once.
