@@ -2,7 +2,7 @@
 //! specs and optimiser settings, runs the loop with the script's loss closure, checkpoints inside stages, and
 //! adds the optimisation to the stage's report.
 
-use super::api_support::{rhai_err, Rr, RunRef};
+use super::api_support::{on_backend, rhai_err, Rr, RunRef};
 use super::scene_api::{RenderHandle, SceneHandle};
 use crate::error::{Error, Result};
 use crate::loss::Tensor;
@@ -246,15 +246,14 @@ fn run_optimize(ctx: &NativeCallContext, run: &RunRef, scene: &mut Scene, opts: 
     let label = label.unwrap_or_else(|| {
         format!("optimize {}", specs.iter().map(|s| s.path.to_string()).collect::<Vec<_>>().join(", "))
     });
-    let mut backend = take_backend(run, "optimize")?;
     let mut call = |r: Rc<Rendered>| loss.call(ctx, r);
     let progress = crate::progress::activity(label.clone(), Some(o.iters));
     let mut observe = |r: &crate::optim::IterationRecord| {
         progress.set(r.iteration + 1, Some(format!("loss {:.4e}", r.loss)));
     };
-    let outcome = optimize(scene, &specs, &mut call, &o, backend.as_mut(), &mut observe);
+    // The backend is out of the context while the optimisation runs: a loss closure must not render.
+    let outcome = on_backend(run, "optimize", |b| optimize(scene, &specs, &mut call, &o, b, &mut observe));
     drop(progress);
-    run.borrow_mut().backend = Some(backend);
     let outcome = outcome.map_err(|e| loss.error(e))?;
     if !quiet {
         for e in &outcome.events {
@@ -295,10 +294,8 @@ fn run_gradient(ctx: &NativeCallContext, run: &RunRef, scene: &Scene, opts: &Map
     let o = options(opts).map_err(rhai_err)?;
     let paths: Vec<_> = specs.iter().map(|s| s.path.clone()).collect();
     let loss = ScriptLoss::from_options(opts, "gradient")?;
-    let mut backend = take_backend(run, "gradient")?;
     let mut call = |r: Rc<Rendered>| loss.call(ctx, r);
-    let e = crate::optim::gradient(scene, &paths, &mut call, &o, backend.as_mut());
-    run.borrow_mut().backend = Some(backend);
+    let e = on_backend(run, "gradient", |b| crate::optim::gradient(scene, &paths, &mut call, &o, b));
     let e = e.map_err(|e| loss.error(e))?;
     let mut grad = Map::new();
     let mut at = 0;
@@ -359,14 +356,6 @@ impl ScriptLoss {
             _ => rhai_err(e),
         }
     }
-}
-
-/// The run's backend, out of the context while an optimisation runs (a loss closure must not render).
-fn take_backend(run: &RunRef, who: &str) -> Rr<Box<dyn crate::backend::Backend>> {
-    run.borrow_mut()
-        .backend
-        .take()
-        .ok_or_else(|| rhai_err(Error::Invalid(format!("{who}() cannot run inside a loss closure"))))
 }
 
 pub fn register(engine: &mut Engine, run: &RunRef) {
