@@ -384,3 +384,156 @@ fn room_init_degrades_gracefully_on_noisy_depth_and_ragged_masks() {
     assert!(tested >= 16, "tested {tested}");
     assert!(worst_size < 0.15, "sizes off by {:.1} %", worst_size * 100.0);
 }
+
+/// Depth as a monocular network gives it: monotone in distance but not affine in depth or inverse depth (here
+/// disparity through a power of 0.6, the compression of the far range such networks show, times a smooth 4 %
+/// bias across the image). The affine calibration then bends and tilts the room; the layout from the photo's
+/// lines, the segmentation's floor-wall and wall-ceiling contacts and the camera-height prior does not read
+/// the depth's values. Over 10 textured rendered rooms at 256x192 (lines to find, furniture on the floor, fov
+/// known): the layout beats the affine box on mask IoU in at least 7 (measured: all 10), and there its pitch is
+/// within 1 degree (measured: 0.80 at worst, the affine box's 6.4), the median depth error of its surfaces
+/// where it measured them at most 5 % (measured 4.0 %, a view whose lines left 0.8 degrees of pitch), the
+/// depth mapped onto it keeps its order (rank correlation above 0.95) and its median error over all pixels,
+/// furniture included, is at most 6 % and on average below the affine calibration's (measured: 4.8 % at worst,
+/// the affine 13.3 %).
+#[test]
+fn room_from_depth_that_is_not_affine_in_distance() {
+    use psdr::stages::{box_view, BoxSurface};
+    use psdr::vision::check_against_layout;
+    let mut rng = SplitMix64(23);
+    let (iw, ih) = (256u32, 192u32);
+    let (mut used, mut cases) = (0, 0);
+    let (mut worst_pitch, mut worst_affine_pitch) = (0.0f32, 0.0f32);
+    let (mut worst_box, mut worst_mapped, mut worst_affine) = (0.0f32, 0.0f32, 0.0f32);
+    let (mut sum_mapped, mut sum_affine) = (0.0f32, 0.0f32);
+    while cases < 10 {
+        let (w, d, h) = (3.0 + 4.0 * rng.next_f32(), 3.0 + 4.0 * rng.next_f32(), 2.4 + 0.8 * rng.next_f32());
+        let r = Room {
+            w,
+            d,
+            h,
+            cam: Vec3::new((rng.next_f32() - 0.5) * 0.4 * w, 1.2 + 0.6 * rng.next_f32(), d / 2.0 - BEHIND),
+            yaw: (rng.next_f32() - 0.5) * 50.0,
+            pitch: -20.0 + 20.0 * rng.next_f32(),
+            fov: 50.0 + 20.0 * rng.next_f32(),
+        };
+        cases += 1;
+        let boxes = furniture(&r, 0.25 * rng.next_f32(), &mut rng);
+        let (mut s, classes) = room_scene(&r, &boxes, true, iw, ih);
+        s.settings.spp = 16;
+        let f = render_cpu(&SceneData::build(&s).unwrap(), &s.settings, &|_, _| {});
+        let photo = psdr::base::Image::new(iw as usize, ih as usize, 3, f.radiance.clone()).unwrap();
+        let mask = |c: &str| class_mask(&f, &classes, c);
+        let (floor, wall, ceiling) = (mask("floor"), mask("wall"), mask("ceiling"));
+        if floor.iter().filter(|&&b| b).count() < 200 {
+            continue;
+        }
+        let rel: Vec<f32> = f
+            .depth
+            .iter()
+            .enumerate()
+            .map(|(i, &z)| {
+                let x = (i % iw as usize) as f32 / iw as f32 - 0.5;
+                if z > 0.0 {
+                    (1.0 / z).powf(0.6) * (1.0 + 0.08 * x)
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let k = Intrinsics::new(iw as usize, ih as usize, r.fov);
+        let masks = [&floor[..], &wall[..], &ceiling[..]];
+        let (affine_metres, _) = calibrate_relative_depth(&rel, DepthUnits::Disparity, masks, &k, 1.5, 1).unwrap();
+        let affine = init_room(&affine_metres, &floor, &wall, &ceiling, &k, &RoomInitOptions::default()).unwrap();
+        worst_affine_pitch = worst_affine_pitch.max((affine.pitch_deg - r.pitch).abs());
+        let l = match check_against_layout(&photo, r.fov, &rel, DepthUnits::Disparity, &affine_metres, masks, &k, 1.5)
+        {
+            Ok(l) => l,
+            Err(e) => {
+                eprintln!("case {cases}: no layout: {e}");
+                continue;
+            }
+        };
+        eprintln!(
+            "case {cases}: pitch {:.1} yaw {:.0} fov {:.0}: affine pitch {:.1} {:.2}x{:.2}x{:.2}; check {:?}",
+            r.pitch, r.yaw, r.fov, affine.pitch_deg, affine.width, affine.depth, affine.height, l.check
+        );
+        let Some(e) = l.room else { continue };
+        used += 1;
+        if used == 1 {
+            // The same through the observations' files: the run's room stage starts from the layout.
+            let dir = psdr_tests::temp_dir("room-layout-observations");
+            let photo_path = dir.join("room.png");
+            psdr::output::write_png_srgb(&photo_path, iw, ih, &f.radiance).unwrap();
+            psdr::output::write_exr_channels(&dir.join("room.depth.exr"), iw, ih, &[("Z".into(), rel.clone())])
+                .unwrap();
+            let ids: Vec<u16> = f.object_id.iter().map(|&o| if o == u32::MAX { 0 } else { o as u16 + 1 }).collect();
+            let masks_img = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(iw, ih, ids).unwrap();
+            masks_img.save(dir.join("room.masks.png")).unwrap();
+            let labels: serde_json::Map<String, serde_json::Value> =
+                classes.iter().enumerate().map(|(o, c)| ((o + 1).to_string(), c.as_str().into())).collect();
+            std::fs::write(dir.join("room.labels.json"), serde_json::to_string(&labels).unwrap()).unwrap();
+            let inputs = psdr::vision::ObservationInputs {
+                depth_units: DepthUnits::Disparity,
+                fov_y_deg: Some(r.fov),
+                models: None,
+                ..psdr::vision::ObservationInputs::new(&photo_path)
+            };
+            let obs = psdr::vision::Observations::resolve(&inputs).unwrap();
+            let layout = obs.room_layout.as_ref().expect("the observations keep the layout");
+            assert!((layout.pitch_deg - r.pitch).abs() < 1.0, "{layout:?}");
+            assert!(obs.depth_calibration.as_ref().unwrap().layout.as_ref().unwrap().used);
+            assert!(obs.warnings.iter().any(|w| w.contains("not affine")), "{:?}", obs.warnings);
+            assert!(obs.sources["depth"].contains("by its order on the room layout"), "{:?}", obs.sources);
+            assert_eq!(obs.resized(128).unwrap().room_layout.as_ref(), Some(layout));
+        }
+        eprintln!(
+            "  layout pitch {:.2} roll {:.2} {:.2}x{:.2}x{:.2} seen {:?} ceiling {} (truth {:.2}x{:.2}x{:.2}; \
+             wall pixels back/left/right {:?})",
+            e.pitch_deg, e.roll_deg, e.width, e.depth, e.height, e.walls_seen, e.ceiling_seen, r.w * 1.5 / r.cam.y,
+            r.d * 1.5 / r.cam.y, r.h * 1.5 / r.cam.y,
+            [2u32, 4, 5].map(|o| f.object_id.iter().filter(|&&x| x == o).count())
+        );
+        worst_pitch = worst_pitch.max((e.pitch_deg - r.pitch).abs());
+        assert!((e.camera_height - 1.5).abs() < 1e-4);
+        assert!(l.check.rank_correlation.unwrap() > 0.95, "{:?}", l.check);
+        let metres = l.metres.unwrap();
+        assert!(metres.iter().all(|v| v.is_finite() && *v >= 0.0));
+        // Depth errors against the truth at the prior's scale: the box where it measured the surface, and the
+        // depth mapped onto it (furniture included) against the affine calibration's.
+        let scale = 1.5 / r.cam.y;
+        let rel_err = |got: f32, i: usize| (got - f.depth[i] * scale).abs() / (f.depth[i] * scale);
+        let view = box_view(&e, &k);
+        let on_box: Vec<f32> = (0..view.len())
+            .filter_map(|i| match view[i] {
+                Some((z, BoxSurface::Floor)) if floor[i] => Some(rel_err(z, i)),
+                Some((z, BoxSurface::Wall(s))) if wall[i] && e.walls_seen[s] => Some(rel_err(z, i)),
+                Some((z, BoxSurface::Ceiling)) if ceiling[i] && e.ceiling_seen => Some(rel_err(z, i)),
+                _ => None,
+            })
+            .collect();
+        let all = |d: &[f32]| (0..d.len()).filter(|&i| f.depth[i] > 0.0).map(|i| rel_err(d[i], i)).collect::<Vec<_>>();
+        let (b, m, a) = (median(on_box), median(all(&metres)), median(all(&affine_metres)));
+        eprintln!("  median depth error: box {:.2} %, mapped {:.2} %, affine {:.2} %", b * 100.0, m * 100.0, a * 100.0);
+        worst_box = worst_box.max(b);
+        worst_mapped = worst_mapped.max(m);
+        worst_affine = worst_affine.max(a);
+        (sum_mapped, sum_affine) = (sum_mapped + m, sum_affine + a);
+    }
+    eprintln!(
+        "{used} of {cases} views took the layout: worst pitch {worst_pitch:.2} degrees (affine: \
+         {worst_affine_pitch:.2}); worst median depth error: box {:.2} %, mapped {:.2} %, affine {:.2} %",
+        worst_box * 100.0,
+        worst_mapped * 100.0,
+        worst_affine * 100.0
+    );
+    assert!(used * 10 >= cases * 7, "the layout was kept in only {used} of {cases} views");
+    assert!(worst_pitch < 1.0, "pitch off by {worst_pitch} degrees");
+    assert!(worst_box < 0.05, "the box's depth off by {worst_box} (median)");
+    assert!(worst_mapped < 0.06 && sum_mapped < sum_affine, "mapped depth {worst_mapped}, affine {worst_affine}");
+}
+
+fn median(mut v: Vec<f32>) -> f32 {
+    v.sort_by(f32::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f32::NAN)
+}

@@ -101,8 +101,16 @@ fn room(run: &RunRef, o: &Observations, opts: &Map) -> crate::Result<SceneHandle
     let inst = o.require_instances()?;
     let as_bool = |c: &str| inst.class_mask(c).into_iter().map(|v| v > 0.5).collect::<Vec<bool>>();
     let k = Intrinsics::new(o.photo.width, o.photo.height, fov);
-    let e = init_room(&depth.image.data, &as_bool("floor"), &as_bool("wall"), &as_bool("ceiling"), &k, &ro)?;
-    let v = serde_json::to_value(&e).map_err(|e| Error::Invalid(e.to_string()))?;
+    // Relative depth that is not affine in distance: the box from the photo's lines and masks (observations).
+    let (e, from) = match &o.room_layout {
+        Some(layout) => (layout.clone(), "room layout from the photo's lines and masks"),
+        None => (
+            init_room(&depth.image.data, &as_bool("floor"), &as_bool("wall"), &as_bool("ceiling"), &k, &ro)?,
+            "depth and masks",
+        ),
+    };
+    let mut v = serde_json::to_value(&e).map_err(|e| Error::Invalid(e.to_string()))?;
+    v["from"] = from.into();
     run.borrow_mut().recorded.insert("room_init".into(), v);
     Ok(SceneHandle(room_scene(&e, fov, o.photo.width as u32, o.photo.height as u32)))
 }

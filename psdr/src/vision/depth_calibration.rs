@@ -23,6 +23,27 @@ pub struct DepthCalibration {
     pub manhattan_residual: f32,
     /// The camera height the scale was set from (metres), a prior, not a measurement.
     pub camera_height_prior: f32,
+    /// The room layout from lines and masks the depth was compared with (and, where it fits the segmentation
+    /// better than the box of this affine calibration, mapped onto by its order alone).
+    pub layout: Option<LayoutCheck>,
+}
+
+/// The depth-free room layout against the affine calibration's box.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct LayoutCheck {
+    /// "lines" (the photo's Manhattan frame) or "depth" (the affine box's floor and walls).
+    pub frame: String,
+    /// Angle (degrees) between the lines' up and the affine depth's; None without a frame from lines.
+    pub frame_angle_deg: Option<f32>,
+    /// Mean IoU of each box's floor, walls and ceiling with the segmentation's.
+    pub box_iou_affine: f32,
+    pub box_iou_layout: f32,
+    pub evidence: crate::stages::LayoutEvidence,
+    /// Whether the depth was mapped onto the layout (true) or kept affine.
+    pub used: bool,
+    /// The depth's order against the layout's (Spearman) and the monotone map's median relative error.
+    pub rank_correlation: Option<f32>,
+    pub median_relative_error: Option<f32>,
 }
 
 /// Shifted depth (arbitrary scale) for one shift; 0 where there is none.
@@ -154,6 +175,13 @@ pub fn calibrate_relative_depth(
     let metres = z.iter().map(|v| v * scale).collect();
     Ok((
         metres,
-        DepthCalibration { units, shift, scale, manhattan_residual: residual, camera_height_prior: camera_height },
+        DepthCalibration {
+            units,
+            shift,
+            scale,
+            manhattan_residual: residual,
+            camera_height_prior: camera_height,
+            layout: None,
+        },
     ))
 }

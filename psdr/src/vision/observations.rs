@@ -17,7 +17,8 @@ use super::vanishing_points::{estimate_fov, FovEstimate, VanishingOptions};
 use crate::base::Image;
 use crate::base::Intrinsics;
 use crate::error::{Error, Result};
-use crate::vision::{calibrate_relative_depth, DepthCalibration};
+use crate::stages::RoomEstimate;
+use crate::vision::{calibrate_relative_depth, check_against_layout, DepthCalibration};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -80,6 +81,9 @@ pub struct Observations {
     pub fov_estimate: Option<FovEstimate>,
     /// How relative depth was turned into metres.
     pub depth_calibration: Option<DepthCalibration>,
+    /// The room box from the photo's lines and masks, where relative depth was mapped onto it
+    /// (`layout_calibration`); the room stage starts from it.
+    pub room_layout: Option<RoomEstimate>,
     /// Quantity -> where it came from ("flag --depth x.exr", "file room.depth.exr").
     pub sources: BTreeMap<String, String>,
     /// What was assumed rather than observed (a default fov, a failed estimator), for the run's report.
@@ -245,6 +249,7 @@ impl Observations {
             fov_y_deg: Some(fov_y_deg),
             fov_estimate,
             depth_calibration: None,
+            room_layout: None,
             sources,
             warnings,
         };
@@ -295,14 +300,50 @@ impl Observations {
         let mask = |c: &str| inst.class_mask(c).into_iter().map(|v| v > 0.5).collect::<Vec<bool>>();
         let (floor, walls, ceiling) = (mask("floor"), mask("wall"), mask("ceiling"));
         let k = Intrinsics::new(self.photo.width, self.photo.height, fov);
-        let (metres, cal) =
+        let depth = depth.clone();
+        let (mut metres, mut cal) =
             calibrate_relative_depth(&depth.image.data, depth.units, [&floor, &walls, &ceiling], &k, camera_height, 1)?;
         let units = format!("{:?}", depth.units).to_lowercase();
-        let note = format!(
+        let mut note = format!(
             "; {units} depth made metric: shift {:.4} from the room's planes, scale from a camera height prior of \
              {camera_height} m",
             cal.shift
         );
+        match check_against_layout(
+            &self.photo,
+            fov,
+            &depth.image.data,
+            depth.units,
+            &metres,
+            [&floor, &walls, &ceiling],
+            &k,
+            camera_height,
+        ) {
+            Ok(l) => {
+                let c = &l.check;
+                if let (Some(room), Some(mapped)) = (l.room, l.metres) {
+                    note = format!(
+                        "; {units} depth made metric by its order on the room layout (frame from {}, mask IoU {:.3} \
+                         against {:.3} for the affine calibration's box; rank correlation {:.3}), scale from a \
+                         camera height prior of {camera_height} m",
+                        c.frame,
+                        c.box_iou_layout,
+                        c.box_iou_affine,
+                        c.rank_correlation.unwrap_or(f32::NAN)
+                    );
+                    self.warnings.push(format!(
+                        "depth: the {units} depth is not affine in distance (its room fits the segmentation with IoU \
+                         {:.3}, the layout from lines and masks {:.3}): the room comes from the layout, and the depth \
+                         keeps only its order",
+                        c.box_iou_affine, c.box_iou_layout
+                    ));
+                    metres = mapped;
+                    self.room_layout = Some(room);
+                }
+                cal.layout = Some(l.check);
+            }
+            Err(e) => self.warnings.push(format!("depth: the room layout from lines and masks was not found: {e}")),
+        }
         self.sources.entry("depth".into()).or_default().push_str(&note);
         self.warnings.push(format!(
             "scale: the depth is {units}, so the room's size in metres rests on the assumed camera height \

@@ -137,17 +137,13 @@ fn fov_from_pair(a: DVec3, b: DVec3) -> Option<f64> {
     (f2 > 0.0 && (10.0..150.0).contains(&fov)).then_some(fov)
 }
 
-/// Estimates the vertical field of view from the photo's vanishing points.
-pub fn estimate_fov(photo: &Image, opts: &VanishingOptions) -> Result<FovEstimate, FovFailure> {
-    let segs = detect_segments(photo, &opts.segments);
-    let lines = to_lines(&segs, photo.width, photo.height);
-    let tol = opts.inlier_px as f64 / photo.height as f64;
-    let mut rng = Rng(opts.seed ^ 0x9E37_79B9_7F4A_7C15);
-    // Sampling proportional to length: long segments carry the directions.
+/// Direction clusters by sequential RANSAC over segment pairs (sampled in proportion to length: long segments
+/// carry the directions), each refined by least squares: up to four, a non-Manhattan one (shadow edges, a
+/// rotated piece of furniture) may come first.
+fn direction_clusters(lines: &[Line], tol: f64, opts: &VanishingOptions, rng: &mut Rng) -> Vec<(DVec3, Vec<usize>)> {
     let total: f64 = lines.iter().map(|l| l.len).sum();
     let mut free: Vec<bool> = vec![true; lines.len()];
     let mut clusters: Vec<(DVec3, Vec<usize>)> = vec![];
-    // Up to four directions: a non-Manhattan one (shadow edges, a rotated piece of furniture) may come first.
     while clusters.len() < 4 {
         let pick = |rng: &mut Rng| {
             let mut t = rng.below(1 << 20) as f64 / (1 << 20) as f64 * total;
@@ -167,7 +163,7 @@ pub fn estimate_fov(photo: &Image, opts: &VanishingOptions) -> Result<FovEstimat
             if lines.len() < 2 {
                 break;
             }
-            let (i, j) = (pick(&mut rng), pick(&mut rng));
+            let (i, j) = (pick(rng), pick(rng));
             if i == j || !free[i] || !free[j] {
                 continue;
             }
@@ -197,6 +193,66 @@ pub fn estimate_fov(photo: &Image, opts: &VanishingOptions) -> Result<FovEstimat
         }
         clusters.push((v, members));
     }
+    clusters
+}
+
+/// The room's three Manhattan directions in camera coordinates (x right, y up, z forward) from the photo's
+/// lines at a known field of view, with the segments behind each.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ManhattanFrame {
+    /// Unit directions, each up to sign; mutually orthogonal.
+    pub axes: [[f32; 3]; 3],
+    /// Segments assigned to each direction (a direction with fewer than `min_segments` follows from the
+    /// other two by orthogonality).
+    pub segments: [usize; 3],
+}
+
+/// The Manhattan frame of the photo's lines at vertical fov `fov_y_deg`: the joint rotation fit of
+/// `estimate_fov` with the focal length held. Needs two directions with `min_segments` each.
+pub fn estimate_frame(photo: &Image, fov_y_deg: f32, opts: &VanishingOptions) -> Result<ManhattanFrame, FovFailure> {
+    let segs = detect_segments(photo, &opts.segments);
+    let lines = to_lines(&segs, photo.width, photo.height);
+    let tol = opts.inlier_px as f64 / photo.height as f64;
+    let mut rng = Rng(opts.seed ^ 0x9E37_79B9_7F4A_7C15);
+    let clusters = direction_clusters(&lines, tol, opts, &mut rng);
+    let fail = |reason: &str, found: usize| FovFailure {
+        reason: reason.to_string(),
+        segments: segs.len(),
+        vanishing_points: found,
+    };
+    if clusters.len() < 2 {
+        return Err(fail("too few lines: fewer than two directions with enough segments", clusters.len()));
+    }
+    let f = 0.5 / (0.5 * (fov_y_deg as f64).to_radians()).tan();
+    let mut best: Option<ManhattanFit> = None;
+    for a in 0..clusters.len() {
+        for b in a + 1..clusters.len() {
+            let fit = manhattan_fit(&lines, &clusters, (a, b), f, tol, true);
+            if best.as_ref().is_none_or(|x| fit.support > x.support) {
+                best = Some(fit);
+            }
+        }
+    }
+    let fit = best.ok_or_else(|| fail("no fit", clusters.len()))?;
+    let count = |k: usize| fit.assignment.iter().filter(|a| **a == Some(k)).count();
+    let segments = [count(0), count(1), count(2)];
+    if segments.iter().filter(|&&n| n >= opts.min_segments).count() < 2 {
+        return Err(fail("too few lines: the fitted frame has fewer than two directions with enough segments", 1));
+    }
+    let col = |k: usize| {
+        let c = fit.r.col(k);
+        [c.x as f32, c.y as f32, c.z as f32]
+    };
+    Ok(ManhattanFrame { axes: [col(0), col(1), col(2)], segments })
+}
+
+/// Estimates the vertical field of view from the photo's vanishing points.
+pub fn estimate_fov(photo: &Image, opts: &VanishingOptions) -> Result<FovEstimate, FovFailure> {
+    let segs = detect_segments(photo, &opts.segments);
+    let lines = to_lines(&segs, photo.width, photo.height);
+    let tol = opts.inlier_px as f64 / photo.height as f64;
+    let mut rng = Rng(opts.seed ^ 0x9E37_79B9_7F4A_7C15);
+    let clusters = direction_clusters(&lines, tol, opts, &mut rng);
     let fail = |reason: &str| FovFailure {
         reason: reason.to_string(),
         segments: segs.len(),
@@ -217,7 +273,7 @@ pub fn estimate_fov(photo: &Image, opts: &VanishingOptions) -> Result<FovEstimat
     for a in 0..clusters.len() {
         for b in a + 1..clusters.len() {
             for &fov in &starts {
-                fits.push(manhattan_fit(&lines, &clusters, (a, b), f_of(fov), tol));
+                fits.push(manhattan_fit(&lines, &clusters, (a, b), f_of(fov), tol, false));
             }
         }
     }
@@ -297,6 +353,7 @@ fn refine(
     r0: DMat3,
     f0: f64,
     tol: f64,
+    fixed_f: bool,
 ) -> (DMat3, f64, f64) {
     let mean_len = lines.iter().map(|l| l.len).sum::<f64>() / lines.len().max(1) as f64;
     let residuals = |p: &[f64; 4]| -> Vec<f64> {
@@ -339,6 +396,11 @@ fn refine(
         for (a, row) in m.iter_mut().enumerate() {
             row[a] *= 1.0 + lambda;
         }
+        if fixed_f {
+            // The focal length is known: its row and column pinned, its step zero.
+            m[3] = [0.0, 0.0, 0.0, 1.0];
+            (m[0][3], m[1][3], m[2][3], g[3]) = (0.0, 0.0, 0.0, 0.0);
+        }
         let Some(step) = solve4(m, g) else { break };
         let trial = [p[0] - step[0], p[1] - step[1], p[2] - step[2], p[3] - step[3]];
         let ct = cost(&trial);
@@ -358,14 +420,15 @@ fn refine(
     (rotation(DVec3::new(p[0], p[1], p[2])) * r0, p[3].exp(), c)
 }
 
-/// Joint fit of focal length and camera rotation, started from clusters a and b as two axes at f0: refined,
-/// then every segment reassigned to the axis it fits best (if any), three rounds.
+/// Joint fit of focal length (held at f0 when `fixed_f`) and camera rotation, started from clusters a and b as
+/// two axes at f0: refined, then every segment reassigned to the axis it fits best (if any), three rounds.
 fn manhattan_fit(
     lines: &[Line],
     clusters: &[(DVec3, Vec<usize>)],
     (a, b): (usize, usize),
     f0: f64,
     tol: f64,
+    fixed_f: bool,
 ) -> ManhattanFit {
     let dir = |v: DVec3, f: f64| DVec3::new(v.x, v.y, v.z * f).normalize();
     let d0 = dir(clusters[a].0, f0);
@@ -381,7 +444,7 @@ fn manhattan_fit(
     let ones = vec![1.0; lines.len()];
     let (mut f, mut cost) = (f0, f64::INFINITY);
     for _round in 0..3 {
-        (r, f, cost) = refine(lines, &assignment, &ones, r, f, tol);
+        (r, f, cost) = refine(lines, &assignment, &ones, r, f, tol, fixed_f);
         for (i, a) in assignment.iter_mut().enumerate() {
             *a = (0..3)
                 .map(|k| (k, misfit(&lines[i], axis_point(&r, f, k))))
@@ -417,7 +480,7 @@ fn bootstrap_sigma(lines: &[Line], fit: &ManhattanFit, tol: f64, draws: usize, r
             for _ in 0..used.len() {
                 weights[used[rng.below(used.len())]] += 1.0;
             }
-            fov(refine(lines, &fit.assignment, &weights, fit.r, fit.f, tol).1)
+            fov(refine(lines, &fit.assignment, &weights, fit.r, fit.f, tol, false).1)
         })
         .collect();
     let mean = samples.iter().sum::<f64>() / draws as f64;

@@ -230,6 +230,8 @@ impl Observations {
             fov_y_deg,
             fov_estimate: self.fov_estimate.clone(),
             depth_calibration: self.depth_calibration.clone(),
+            // The box and camera do not depend on the image's size (the crop is centred).
+            room_layout: self.room_layout.clone(),
             sources,
             warnings: self.warnings.clone(),
         })

@@ -2,7 +2,9 @@
 //! into metres by `vision::calibrate_relative_depth` first) and the room as a scene (`room_scene`).
 
 mod room_init;
+mod room_layout;
 mod room_scene;
 
 pub use room_init::{init_room, RoomEstimate, RoomInitOptions};
+pub use room_layout::{box_mask_iou, box_view, estimate_axes, layout_room, BoxSurface, LayoutEvidence, LayoutOptions};
 pub use room_scene::{room_scene, room_summary, ROOM_SURFACES};

@@ -189,6 +189,29 @@ pub fn init_room(
         Some(c) => c,
         None => 1.2 * all.iter().map(|p| height_of(*p)).fold(cam_height, f32::max),
     };
+    Ok(box_estimate(BoxAxes { up, ax, az }, cam_height, bounds, seen, height, ceiling_seen, inliers))
+}
+
+/// The room's axes in camera coordinates: up (floor to ceiling), world +x and world +z.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BoxAxes {
+    pub up: Vec3,
+    pub ax: Vec3,
+    pub az: Vec3,
+}
+
+/// The estimate of a box with walls at `bounds` (offsets along -x, +x, -z, +z from the camera) seen from a
+/// camera `cam_height` above the floor.
+pub(crate) fn box_estimate(
+    axes: BoxAxes,
+    cam_height: f32,
+    bounds: [f32; 4],
+    seen: [bool; 4],
+    height: f32,
+    ceiling_seen: bool,
+    floor_inliers: usize,
+) -> RoomEstimate {
+    let BoxAxes { up, ax, az } = axes;
     // Camera-to-world: world coordinates of the camera's axes (renderer convention: x right, y up, z forward).
     let world = |v: Vec3| Vec3::new(v.dot(ax), v.dot(up), v.dot(az));
     let (right, cam_up, fwd) = (world(Vec3::X), world(Vec3::Y), world(Vec3::Z));
@@ -202,7 +225,7 @@ pub fn init_room(
     let pitch_deg = fwd.y.asin().to_degrees();
     // Positive when the image is turned counterclockwise (the camera's right side rises).
     let roll_deg = right.y.atan2(cam_up.y).to_degrees();
-    Ok(RoomEstimate {
+    RoomEstimate {
         width: bounds[1] - bounds[0],
         depth: bounds[3] - bounds[2],
         height,
@@ -214,8 +237,8 @@ pub fn init_room(
         roll_deg,
         walls_seen: seen,
         ceiling_seen,
-        floor_inliers: inliers,
-    })
+        floor_inliers,
+    }
 }
 
 /// Lines through 2-D points by sequential RANSAC (each line's inliers removed before the next): up to four
