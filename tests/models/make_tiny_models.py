@@ -2,7 +2,7 @@
 """Writes the tiny ONNX models psdr's tests run through ONNX Runtime (tests/tests/onnx_estimators.rs).
 
 Each follows psdr's input contract (one float32 NCHW input [1, 3, H, W] holding the photo's sRGB values
-normalised with ImageNet's mean and std) and undoes the normalisation first, so a test can tell whether psdr
+normalised with ImageNet's mean and std; the CLIP stand-in with CLIP's) and undoes the normalisation first, so a test can tell whether psdr
 normalised, resized and laid out the input as the contract says, and whether it reads the output right.
 
     pip install onnx numpy onnxruntime==1.31.1
@@ -97,6 +97,28 @@ def tiny_fov():
     return save("tiny_fov", nodes, inits, inp, out)
 
 
+CLIP_MEAN = np.array([0.48145466, 0.4578275, 0.40821073], dtype=np.float32)
+CLIP_STD = np.array([0.26862954, 0.26130258, 0.27577711], dtype=np.float32)
+
+
+def tiny_clip_image():
+    """CLIP's image-tower signature: static [1,3,224,224] normalised with CLIP's mean and std in; [1,512] out =
+    the sRGB image 28x28 average-pooled to 3x8x8 (flattened, channel-major), then 320 zeros. Checks the CLIP
+    normalisation (the ImageNet one, or none, moves every value) and resizing to 224x224."""
+    nodes, inits = [], []
+    inits.append(numpy_helper.from_array(CLIP_STD.reshape(1, 3, 1, 1), "std"))
+    inits.append(numpy_helper.from_array(CLIP_MEAN.reshape(1, 3, 1, 1), "mean"))
+    nodes.append(helper.make_node("Mul", ["pixel_values", "std"], ["scaled"]))
+    nodes.append(helper.make_node("Add", ["scaled", "mean"], ["rgb"]))
+    nodes.append(helper.make_node("AveragePool", ["rgb"], ["pooled"], kernel_shape=[28, 28], strides=[28, 28]))
+    nodes.append(helper.make_node("Flatten", ["pooled"], ["flat"], axis=1))
+    inits.append(numpy_helper.from_array(np.array([0, 0, 0, 320], dtype=np.int64), "pads"))
+    nodes.append(helper.make_node("Pad", ["flat", "pads"], ["image_embeds"]))
+    inp = helper.make_tensor_value_info("pixel_values", TensorProto.FLOAT, [1, 3, 224, 224])
+    out = helper.make_tensor_value_info("image_embeds", TensorProto.FLOAT, [1, 512])
+    return save("tiny_clip_image", nodes, inits, inp, out)
+
+
 def normalise(rgb):
     return ((rgb - MEAN.reshape(1, 3, 1, 1)) / STD.reshape(1, 3, 1, 1)).astype(np.float32)
 
@@ -126,7 +148,7 @@ def self_check(paths):
     """Runs each model with ONNX Runtime against numpy's answer (to 1e-5)."""
     import onnxruntime as ort
 
-    depth, seg, fov = (ort.InferenceSession(p, providers=["CPUExecutionProvider"]) for p in paths)
+    depth, seg, fov, clip = (ort.InferenceSession(p, providers=["CPUExecutionProvider"]) for p in paths)
 
     # depth: a horizontal red ramp, 0 at the left to 1 at the right
     rgb = np.zeros((1, 3, 32, 48), dtype=np.float32)
@@ -159,9 +181,16 @@ def self_check(paths):
     got = fov.run(None, {"image": normalise(rgb)})[0]
     check("tiny_fov random", got, np.array([[40 + 40 * rgb[0, 0].mean()]], dtype=np.float32))
 
+    # clip image: a random image, CLIP-normalised
+    rgb = rng.random((1, 3, 224, 224), dtype=np.float32)
+    clip_in = ((rgb - CLIP_MEAN.reshape(1, 3, 1, 1)) / CLIP_STD.reshape(1, 3, 1, 1)).astype(np.float32)
+    got = clip.run(None, {"pixel_values": clip_in})[0]
+    pooled = rgb.reshape(1, 3, 8, 28, 8, 28).mean(axis=(3, 5)).reshape(1, 192)
+    check("tiny_clip_image random", got, np.concatenate([pooled, np.zeros((1, 320), np.float32)], axis=1))
+
 
 if __name__ == "__main__":
-    paths = [tiny_depth(), tiny_segmentation(), tiny_fov()]
+    paths = [tiny_depth(), tiny_segmentation(), tiny_fov(), tiny_clip_image()]
     self_check(paths)
     for p in paths:
         print(f"{os.path.basename(p)}: {os.path.getsize(p)} bytes")

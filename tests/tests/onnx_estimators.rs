@@ -46,6 +46,39 @@ fn fov_model_reads_the_normalised_photo() {
     }
 }
 
+/// The pinned CLIP image tower's contract (`clip_image.onnx`: CLIP's mean and std, 224x224) with a stand-in of
+/// its signature that returns the sRGB image pooled to 3x8x8: a uniform photo comes back as its sRGB colour in
+/// every cell, whatever the photo's size, only when psdr normalised by CLIP's numbers; the same file under
+/// another name is fed by the generic embedding contract (0..1, nothing subtracted) and comes back otherwise.
+#[test]
+fn clip_image_tower_gets_clips_normalisation() {
+    if load("tiny_fov.onnx").is_none() {
+        return;
+    }
+    let dir = temp_dir("onnx-clip");
+    let clip = dir.join(psdr::vision::CLIP_IMAGE_FILE);
+    let other = dir.join("my_encoder.onnx");
+    std::fs::copy(model_path("tiny_clip_image.onnx"), &clip).unwrap();
+    std::fs::copy(model_path("tiny_clip_image.onnx"), &other).unwrap();
+    let colour = [0.8f32, 0.3, 0.55];
+    let mut want: Vec<f32> = (0..192).map(|i| colour[i / 64]).collect();
+    want.resize(512, 0.0);
+    let norm = want.iter().map(|v| v * v).sum::<f32>().sqrt();
+    let want: Vec<f32> = want.iter().map(|v| v / norm).collect();
+    for (w, h) in [(224, 224), (300, 170)] {
+        let p = photo(w, h, |_, _| colour);
+        let mut m = psdr::vision::load_embedding_model(&clip).unwrap();
+        let e = psdr::vision::embed(&mut m, &p).unwrap();
+        let err = e.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+        assert_eq!(e.len(), 512);
+        assert!(err < 1e-3, "{w}x{h}: embedding off by {err}");
+        let mut g = psdr::vision::load_embedding_model(&other).unwrap();
+        let e = psdr::vision::embed(&mut g, &p).unwrap();
+        let err = e.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+        assert!(err > 1e-2, "the generic contract fed CLIP's numbers");
+    }
+}
+
 #[test]
 fn depth_model_output_is_resized_to_the_photo_as_disparity() {
     let Some(mut m) = load("tiny_depth.onnx") else { return };

@@ -112,6 +112,8 @@ fn a_photo_alone_runs_every_stage_with_the_models_and_stops_at_once_without() {
     std::fs::create_dir_all(&models).unwrap();
     std::fs::copy(repo("tests/models/tiny_depth.onnx"), models.join("depth.onnx")).unwrap();
     std::fs::copy(repo("tests/models/tiny_segmentation.onnx"), models.join("segmentation.onnx")).unwrap();
+    // The optional CLIP image tower too: the script finds it in the models folder for the retrieval.
+    std::fs::copy(repo("tests/models/tiny_clip_image.onnx"), models.join(psdr::vision::CLIP_IMAGE_FILE)).unwrap();
     let out = dir.join("out");
     let t = std::time::Instant::now();
     let summary = match run(&photo, &models, &out) {
@@ -133,6 +135,8 @@ fn a_photo_alone_runs_every_stage_with_the_models_and_stops_at_once_without() {
     let sources = &result["recorded"]["observations"]["sources"];
     assert!(sources["depth"].as_str().unwrap_or("").contains("depth.onnx"), "{sources}");
     assert!(sources["instances"].as_str().unwrap_or("").contains("segmentation.onnx"), "{sources}");
+    let encoder = &result["recorded"]["objects_init"]["embedding"];
+    assert!(encoder.as_str().unwrap_or("").ends_with(psdr::vision::CLIP_IMAGE_FILE), "{encoder}");
     // The room from the stand-ins' answers: the disparity is exact but 16x24 (the stand-in's output), so the
     // planes come from a coarse, upsampled map; the scale rests on the 1.5 m camera-height prior, which this
     // room was painted with.

@@ -446,8 +446,7 @@ fn room_from_depth_that_is_not_affine_in_distance() {
         let (affine_metres, _) = calibrate_relative_depth(&rel, DepthUnits::Disparity, masks, &k, 1.5, 1).unwrap();
         let affine = init_room(&affine_metres, &floor, &wall, &ceiling, &k, &RoomInitOptions::default()).unwrap();
         worst_affine_pitch = worst_affine_pitch.max((affine.pitch_deg - r.pitch).abs());
-        let l = match check_against_layout(&photo, r.fov, &rel, DepthUnits::Disparity, &affine_metres, masks, &k, 1.5)
-        {
+        let l = match check_against_layout(&photo, r.fov, &rel, DepthUnits::Disparity, &affine_metres, masks, &k, 1.5) {
             Ok(l) => l,
             Err(e) => {
                 eprintln!("case {cases}: no layout: {e}");
@@ -490,8 +489,16 @@ fn room_from_depth_that_is_not_affine_in_distance() {
         eprintln!(
             "  layout pitch {:.2} roll {:.2} {:.2}x{:.2}x{:.2} seen {:?} ceiling {} (truth {:.2}x{:.2}x{:.2}; \
              wall pixels back/left/right {:?})",
-            e.pitch_deg, e.roll_deg, e.width, e.depth, e.height, e.walls_seen, e.ceiling_seen, r.w * 1.5 / r.cam.y,
-            r.d * 1.5 / r.cam.y, r.h * 1.5 / r.cam.y,
+            e.pitch_deg,
+            e.roll_deg,
+            e.width,
+            e.depth,
+            e.height,
+            e.walls_seen,
+            e.ceiling_seen,
+            r.w * 1.5 / r.cam.y,
+            r.d * 1.5 / r.cam.y,
+            r.h * 1.5 / r.cam.y,
             [2u32, 4, 5].map(|o| f.object_id.iter().filter(|&&x| x == o).count())
         );
         worst_pitch = worst_pitch.max((e.pitch_deg - r.pitch).abs());

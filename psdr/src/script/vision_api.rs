@@ -150,6 +150,15 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
         }
         Ok(ab / (aa * bb).sqrt().max(1e-30))
     });
+    // A file of the run's models folder (--models, PSDR_MODELS, the cache), or "" where it has none: the
+    // optional models (the CLIP image tower) are used when `psdr models fetch` put them there.
+    let r = run.clone();
+    engine.register_fn("models_file", move |name: &str| -> String {
+        let run = r.borrow();
+        let folder =
+            run.options.observations.as_ref().map_or_else(|| crate::models::models_folder(None), |o| o.models.clone());
+        folder.map(|d| d.join(name)).filter(|p| p.is_file()).map(|p| p.display().to_string()).unwrap_or_default()
+    });
     engine.register_type_with_name::<ObsHandle>("Observations");
     let r = run.clone();
     engine.register_fn("observe", move |path: &str| observe(&r, path, &Map::new()));

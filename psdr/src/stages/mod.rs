@@ -29,6 +29,6 @@ pub use objects::{
     SkippedInstance,
 };
 pub use objects::{merge_split_instances, MergedInstance};
-pub use room::{init_room, RoomEstimate, RoomInitOptions};
 pub use room::{box_mask_iou, box_view, estimate_axes, layout_room, BoxSurface, LayoutEvidence, LayoutOptions};
+pub use room::{init_room, RoomEstimate, RoomInitOptions};
 pub use room::{room_scene, room_summary, ROOM_SURFACES};

@@ -36,7 +36,12 @@ const IOU_MARGIN: f32 = 0.01;
 
 /// The photo's Manhattan frame from its lines, matched to `up0` and `x0` (the affine box's axes, camera
 /// coordinates): (up, x, angle between the two ups in degrees), or why not.
-fn frame_from_lines(photo: &Image, fov_y_deg: f32, up0: Vec3, x0: Vec3) -> std::result::Result<(Vec3, Vec3, f32), String> {
+fn frame_from_lines(
+    photo: &Image,
+    fov_y_deg: f32,
+    up0: Vec3,
+    x0: Vec3,
+) -> std::result::Result<(Vec3, Vec3, f32), String> {
     let (ww, wh, crop) = working_size(photo.width, photo.height, FRAME_LONG_SIDE);
     let small = photo_at(photo, ww, wh).ok_or("the photo could not be resampled")?;
     let fov = (2.0 * ((fov_y_deg.to_radians() / 2.0).tan() as f64 * crop[3] / photo.height as f64).atan()).to_degrees();
@@ -80,7 +85,7 @@ pub fn check_against_layout(
         Err(why) if affine.is_some() => (format!("depth (lines: {why})"), None, up0, x0),
         Err(why) => return Err(Error::Invalid(format!("room layout: no frame: the depth gives no room and {why}"))),
     };
-    let (layout, evidence) = layout_room(up, x, floor, walls, ceiling, k, camera_height, &LayoutOptions::default())?;
+    let (layout, evidence) = layout_room(up, x, masks, k, camera_height, &LayoutOptions::default())?;
     let box_iou_layout = iou(&layout);
     let mut check = LayoutCheck {
         frame,

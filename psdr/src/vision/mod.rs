@@ -35,7 +35,7 @@ pub use masks::{load_instances, Instance, Instances};
 pub use monotone_depth::{fit_monotone_depth, MonotoneDepth};
 pub use observations::{ObservationInputs, Observations, DEFAULT_CAMERA_HEIGHT, DEFAULT_FOV_Y_DEG};
 pub use onnx_depth::estimate_depth;
-pub use onnx_embedding::{cosine, embed, load_embedding_model};
+pub use onnx_embedding::{cosine, embed, load_embedding_model, CLIP_IMAGE_FILE};
 pub use onnx_fov::estimate_fov_onnx;
 pub use onnx_model::{resize_bilinear, InputContract, ModelOutput, OnnxModel};
 pub use onnx_segmentation::{estimate_instances, ADE20K_CLASSES};

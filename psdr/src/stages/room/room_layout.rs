@@ -71,19 +71,18 @@ struct Foot {
     across: [bool; 2],
 }
 
-/// The room box from the frame `up`, `x` (camera coordinates; z follows), the class masks and the camera's
-/// height above the floor (a prior that sets the scale).
+/// The room box from the frame `up`, `x` (camera coordinates; z follows), the class masks (floor, walls,
+/// ceiling) and the camera's height above the floor (a prior that sets the scale).
 pub fn layout_room(
     up: Vec3,
     x: Vec3,
-    floor: &[bool],
-    walls: &[bool],
-    ceiling: &[bool],
+    masks: [&[bool]; 3],
     k: &Intrinsics,
     camera_height: f32,
     opts: &LayoutOptions,
 ) -> Result<(RoomEstimate, LayoutEvidence)> {
     let (w, h) = (k.width, k.height);
+    let [floor, walls, ceiling] = masks;
     if !(camera_height.is_finite() && camera_height > 0.0) {
         return Err(Error::Invalid(format!("room layout: camera height {camera_height} m must be positive")));
     }
