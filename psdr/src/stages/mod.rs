@@ -30,5 +30,5 @@ pub use objects::{
 };
 pub use objects::{merge_split_instances, MergedInstance};
 pub use room::{box_mask_iou, box_view, estimate_axes, layout_room, BoxSurface, LayoutEvidence, LayoutOptions};
-pub use room::{init_room, RoomEstimate, RoomInitOptions};
+pub use room::{init_room, search_frame, FrameChoice, FrameStart, RoomEstimate, RoomInitOptions};
 pub use room::{room_scene, room_summary, ROOM_SURFACES};

@@ -31,7 +31,8 @@ pub struct DepthCalibration {
 /// The depth-free room layout against the affine calibration's box.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct LayoutCheck {
-    /// "lines" (the photo's Manhattan frame) or "depth" (the affine box's floor and walls).
+    /// The start frame the layout came from, "lines" (the photo's Manhattan frame) or "depth" (the affine
+    /// box's floor and walls), and how far the search by mask IoU turned it (`stages::search_frame`).
     pub frame: String,
     /// Angle (degrees) between the lines' up and the affine depth's; None without a frame from lines.
     pub frame_angle_deg: Option<f32>,

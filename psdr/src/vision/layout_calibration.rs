@@ -3,7 +3,9 @@
 //! a network's is not, and then its room comes out tilted and bent (on a real living-room photo: pitch -15.6
 //! degrees where the photo's is about -26). The depth-free layout (`stages::layout_room`: the photo's lines'
 //! Manhattan frame, the floor-wall and wall-ceiling contacts of the segmentation, the camera-height prior) does
-//! not rest on the depth's values at all. Of the two boxes the one whose floor, walls and ceiling cover the
+//! not rest on the depth's values at all; its frame is the lines' or the affine depth's, whichever gives the
+//! layout that covers the segmentation best, turned further by the same score (`stages::search_frame`). Of
+//! the two boxes the one whose floor, walls and ceiling cover the
 //! segmentation's better is kept (the paper's IoU criterion; a tie keeps the affine one); when it is the
 //! layout, the depth is mapped onto it by its order alone (`fit_monotone_depth`), so furniture gets depths
 //! consistent with the room it stands in. Both boxes' scores, the frame's source and the depth's rank
@@ -15,8 +17,8 @@ use super::working_size::{photo_at, working_size};
 use super::{fit_monotone_depth, DepthUnits};
 use crate::base::{erode, Image, Intrinsics};
 use crate::error::{Error, Result};
-use crate::stages::{box_mask_iou, box_view, estimate_axes, init_room, layout_room, BoxSurface};
-use crate::stages::{LayoutOptions, RoomEstimate, RoomInitOptions};
+use crate::stages::{box_mask_iou, box_view, estimate_axes, init_room, search_frame, BoxSurface, FrameStart};
+use crate::stages::{RoomEstimate, RoomInitOptions};
 use glam::Vec3;
 
 /// The outcome: the check for the report, and where the layout is kept, its box and the depth mapped onto it.
@@ -31,6 +33,10 @@ const FRAME_LONG_SIDE: usize = 640;
 /// The lines' up must be within this of the affine depth's (degrees) to replace it: beyond, a line cluster
 /// was taken for the vertical that is not (or the depth is upside down).
 const FRAME_AGREEMENT_DEG: f32 = 25.0;
+/// The lines' vertical is trusted with this many segments of its own: with fewer it follows from the two
+/// horizontal directions, whose rotation about the better-supported one is loose (`bench_room_layout`: every
+/// vertical with 8 or more within 1.5 degrees of the truth, those with 2-6 off by 3.7-15.5).
+const MIN_VERTICAL_SEGMENTS: usize = 8;
 /// The layout replaces the affine box only when its mean IoU is higher by more than this.
 const IOU_MARGIN: f32 = 0.01;
 
@@ -50,6 +56,12 @@ fn frame_from_lines(
     let i = (0..3).max_by(|&a, &b| axes[a].dot(up0).abs().total_cmp(&axes[b].dot(up0).abs())).unwrap_or(1);
     let up = axes[i] * axes[i].dot(up0).signum();
     let angle = up.dot(up0).clamp(-1.0, 1.0).acos().to_degrees();
+    if frame.segments[i] < MIN_VERTICAL_SEGMENTS {
+        return Err(format!(
+            "the vertical has {} segments of its own (at least {MIN_VERTICAL_SEGMENTS} fix it)",
+            frame.segments[i]
+        ));
+    }
     if angle > FRAME_AGREEMENT_DEG {
         return Err(format!("the lines' nearest vertical is {angle:.1} degrees from the depth's"));
     }
@@ -80,13 +92,32 @@ pub fn check_against_layout(
         let (up, ax, _) = estimate_axes(e);
         (up, ax)
     });
-    let (frame, frame_angle_deg, up, x) = match frame_from_lines(photo, fov_y_deg, up0, x0) {
-        Ok((up, x, angle)) => ("lines".to_string(), Some(angle), up, x),
-        Err(why) if affine.is_some() => (format!("depth (lines: {why})"), None, up0, x0),
-        Err(why) => return Err(Error::Invalid(format!("room layout: no frame: the depth gives no room and {why}"))),
-    };
-    let (layout, evidence) = layout_room(up, x, masks, k, camera_height, &LayoutOptions::default())?;
-    let box_iou_layout = iou(&layout);
+    // Start frames: the photo's lines' (where they give one near the depth's up) and the affine depth's; the
+    // one whose layout covers the masks best, refined by the same score (`search_frame`).
+    let mut starts = vec![];
+    let mut names = vec![];
+    let mut frame_angle_deg = None;
+    let lines = frame_from_lines(photo, fov_y_deg, up0, x0);
+    match &lines {
+        Ok((up, x, angle)) => {
+            starts.push(FrameStart { up: *up, x: *x, keep_up: true });
+            names.push("lines".to_string());
+            frame_angle_deg = Some(*angle);
+        }
+        Err(why) => names.push(format!("depth (lines: {why})")),
+    }
+    // The depth's frame only where the lines give none: the masks' IoU, which chooses between starts, cannot
+    // tell their pitches apart.
+    if lines.is_err() && affine.is_some() {
+        starts.push(FrameStart { up: up0, x: x0, keep_up: false });
+    }
+    if starts.is_empty() {
+        let why = lines.err().unwrap_or_default();
+        return Err(Error::Invalid(format!("room layout: no frame: the depth gives no room and {why}")));
+    }
+    let choice = search_frame(&starts, masks, k, camera_height)?;
+    let frame = format!("{}, turned {:.2} degrees by the masks' IoU", names[choice.start], choice.turned_deg);
+    let (layout, evidence, box_iou_layout) = (choice.layout, choice.evidence, choice.iou);
     let mut check = LayoutCheck {
         frame,
         frame_angle_deg,
