@@ -8,7 +8,8 @@
 //! the room fitted to the true depth, median relative error of the metric depth over every pixel (the truth
 //! at the 1.5 m camera-height prior's scale), which box was kept and why (both boxes' mask IoU), and seconds.
 //! Writes benchmarks/results/room_layout.csv and room_layout.svg:
-//! `cargo run -p psdr-benchmarks --release --bin bench_room_layout`.
+//! `cargo run -p psdr-benchmarks --release --bin bench_room_layout [-- --write-depth DIR]` (DIR gets each
+//! room's distorted depth as ROOM.power06_bias.exr, for `psdr run ... --depth F --depth-units disparity`).
 
 use psdr::base::Intrinsics;
 use psdr::stages::{init_room, RoomInitOptions};
@@ -32,6 +33,8 @@ fn main() -> anyhow::Result<()> {
         .filter(|p| p.join("photo.png").is_file())
         .collect();
     rooms.sort();
+    let args: Vec<String> = std::env::args().collect();
+    let write_depth = args.iter().position(|a| a == "--write-depth").and_then(|i| args.get(i + 1)).map(PathBuf::from);
     let mut csv = String::from(
         "room,distortion,kept,box_iou_affine,box_iou_layout,frame,pitch_err_affine_deg,pitch_err_kept_deg,\
          depth_err_affine_pct,depth_err_kept_pct,rank_correlation,s_affine,s_layout\n",
@@ -104,6 +107,11 @@ fn main() -> anyhow::Result<()> {
                 depth_kept * 100.0,
                 rank.map_or(String::new(), |r| format!("{r:.4}"))
             );
+            if let Some(out) = write_depth.as_ref().filter(|_| label == "power 0.6 + 4 % bias") {
+                std::fs::create_dir_all(out)?;
+                let path = out.join(format!("{name}.power06_bias.exr"));
+                psdr::output::write_exr_channels(&path, w as u32, h as u32, &[("Z".into(), rel.clone())])?;
+            }
             if label == "power 0.6 + 4 % bias" {
                 bars.push((name.clone(), vec![depth_affine as f64 * 100.0, depth_kept as f64 * 100.0]));
             }

@@ -1,7 +1,7 @@
 //! Materials in scripts: `material_segments(s, obs, #{min_pixels})` maps each material the photo shows to its
 //! mask (`stages::material_segments`).
 //! Albedos from shading (`stages::albedo_division`): `divide_albedos(s, photo, segments, #{rounds,
-//! spp})` and `light_scale_search(s, photo, segments, #{range, steps, rounds, spp, downsample})`, where
+//! spp})` and `light_scale_search(s, photo, segments, #{range, steps, rounds, spp, downsample, per_channel})`, where
 //! `segments` maps a homogeneous material's name to the mask of the photo's pixels that show it. Both change
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
 //! `texture_surfaces(s, photo, segments, #{spp, top_k, colour_weight, min_contrast, min_crop, max_crop,
@@ -75,9 +75,13 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             "rounds" => o.rounds = option_number(what, k, v)?.max(0.0) as usize,
             "spp" => o.spp = option_number(what, k, v)?.max(1.0) as u32,
             "downsample" => o.downsample = option_number(what, k, v)?.max(1.0) as usize,
+            "per_channel" => {
+                o.per_channel =
+                    v.as_bool().map_err(|_| Error::Invalid(format!("{what}: 'per_channel' is true or false")))?
+            }
             other => {
                 return Err(Error::Invalid(format!(
-                    "{what}: unknown option '{other}' (range, steps, rounds, spp, downsample)"
+                    "{what}: unknown option '{other}' (range, steps, rounds, spp, downsample, per_channel)"
                 )))
             }
         }

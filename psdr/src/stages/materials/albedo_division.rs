@@ -118,11 +118,14 @@ pub struct LightScaleOptions {
     pub rounds: usize,
     pub spp: u32,
     pub downsample: usize,
+    /// A factor per colour channel (white balance absorbed into the lights' colour), or one for all three
+    /// (the lights keep their fitted colour; the albedos take the rest).
+    pub per_channel: bool,
 }
 
 impl Default for LightScaleOptions {
     fn default() -> Self {
-        LightScaleOptions { range: (0.5, 2.0), steps: 9, rounds: 3, spp: 32, downsample: 8 }
+        LightScaleOptions { range: (0.5, 2.0), steps: 9, rounds: 3, spp: 32, downsample: 8, per_channel: true }
     }
 }
 
@@ -210,7 +213,8 @@ pub fn search_light_scale(
         out.errors.push(l1_downsampled(&img, &recorded_photo, w, h, opts.downsample.max(1)));
     }
     for c in 0..3 {
-        let e = |i: usize| out.errors[i][c];
+        // One channel's error, or the three's sum when the factor is common.
+        let e = |i: usize| if opts.per_channel { out.errors[i][c] } else { out.errors[i].iter().sum() };
         let i = (0..out.factors.len()).min_by(|&a, &b| e(a).total_cmp(&e(b))).unwrap_or(0);
         let mut x = out.factors[i].ln();
         if i > 0 && i + 1 < out.factors.len() {
