@@ -32,14 +32,14 @@ pub struct DepthCalibration {
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct LayoutCheck {
     /// The start frame the layout came from, "lines" (the photo's Manhattan frame) or "depth" (the affine
-    /// box's floor and walls), and how far the search by mask IoU turned it (`stages::search_frame`).
+    /// box's floor and walls), and how far the search by mask IoU turned it (`search_frame`).
     pub frame: String,
     /// Angle (degrees) between the lines' up and the affine depth's; None without a frame from lines.
     pub frame_angle_deg: Option<f32>,
     /// Mean IoU of each box's floor, walls and ceiling with the segmentation's.
     pub box_iou_affine: f32,
     pub box_iou_layout: f32,
-    pub evidence: crate::stages::LayoutEvidence,
+    pub evidence: super::room_layout::LayoutEvidence,
     /// Whether the depth was mapped onto the layout (true) or kept affine.
     pub used: bool,
     /// The depth's order against the layout's (Spearman) and the monotone map's median relative error.

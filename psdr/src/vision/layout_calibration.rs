@@ -1,10 +1,10 @@
 //! Relative depth checked against the room layout. The affine calibration (`calibrate_relative_depth`) is
 //! exact when the depth is affine in true depth (or in inverse depth), as a depth sensor's or a renderer's is;
 //! a network's is not, and then its room comes out tilted and bent (on a real living-room photo: pitch -15.6
-//! degrees where the photo's is about -26). The depth-free layout (`stages::layout_room`: the photo's lines'
+//! degrees where the photo's is about -26). The depth-free layout (`layout_room`: the photo's lines'
 //! Manhattan frame, the floor-wall and wall-ceiling contacts of the segmentation, the camera-height prior) does
 //! not rest on the depth's values at all; its frame is the lines' or the affine depth's, whichever gives the
-//! layout that covers the segmentation best, turned further by the same score (`stages::search_frame`). Of
+//! layout that covers the segmentation best, turned further by the same score (`search_frame`). Of
 //! the two boxes the one whose floor, walls and ceiling cover the
 //! segmentation's better is kept (the paper's IoU criterion; a tie keeps the affine one); when it is the
 //! layout, the depth is mapped onto it by its order alone (`fit_monotone_depth`), so furniture gets depths
@@ -12,13 +12,14 @@
 //! agreement with the layout are reported.
 
 use super::depth_calibration::LayoutCheck;
+use super::frame_search::{search_frame, FrameStart};
+use super::room_init::{init_room, RoomEstimate, RoomInitOptions};
+use super::room_layout::{box_mask_iou, box_view, estimate_axes, BoxSurface};
 use super::vanishing_points::{estimate_frame, VanishingOptions};
 use super::working_size::{photo_at, working_size};
 use super::{fit_monotone_depth, DepthUnits};
 use crate::base::{erode, Image, Intrinsics};
 use crate::error::{Error, Result};
-use crate::stages::{box_mask_iou, box_view, estimate_axes, init_room, search_frame, BoxSurface, FrameStart};
-use crate::stages::{RoomEstimate, RoomInitOptions};
 use glam::Vec3;
 
 /// The outcome: the check for the report, and where the layout is kept, its box and the depth mapped onto it.

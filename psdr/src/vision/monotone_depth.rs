@@ -1,6 +1,6 @@
 //! Relative depth to metres by its order alone. A depth network's output is a monotone function of distance
 //! (nearer is always nearer) but not an affine one: fitting it with a shift and a scale bends the room's
-//! planes. Given metric depth for some pixels (the room box of `stages::layout_room` where the photo shows it),
+//! planes. Given metric depth for some pixels (the room box of `layout_room` where the photo shows it),
 //! the monotone map from the network's values to metres is fitted by isotonic regression (pool adjacent
 //! violators over equal-count bins) and applied to every pixel, furniture included. Beyond the fitted range
 //! the map continues as an affine one in the units' own space (depth for `relative`, inverse depth for

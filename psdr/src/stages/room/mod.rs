@@ -1,12 +1,10 @@
-//! The room stage: the room box and camera from depth and segmentation (`room_init`; relative depth is turned
-//! into metres by `vision::calibrate_relative_depth` first) and the room as a scene (`room_scene`).
+//! The room stage: the room as a scene (`room_scene`) from the box and camera the observations estimate
+//! (`vision::init_room` from depth and segmentation; where relative depth is not affine in distance, the
+//! layout from lines and masks, `vision::layout_room`), re-exported here as the stage's starting points.
 
-mod frame_search;
-mod room_init;
-mod room_layout;
 mod room_scene;
 
-pub use frame_search::{search_frame, FrameChoice, FrameStart};
-pub use room_init::{init_room, RoomEstimate, RoomInitOptions};
-pub use room_layout::{box_mask_iou, box_view, estimate_axes, layout_room, BoxSurface, LayoutEvidence, LayoutOptions};
+pub use crate::vision::{box_mask_iou, box_view, estimate_axes, init_room, layout_room, search_frame};
+pub use crate::vision::{BoxSurface, FrameChoice, FrameStart, LayoutEvidence, LayoutOptions};
+pub use crate::vision::{RoomEstimate, RoomInitOptions};
 pub use room_scene::{room_scene, room_summary, ROOM_SURFACES};

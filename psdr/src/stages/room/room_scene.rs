@@ -3,8 +3,8 @@
 //! times the room's extent: seen from inside a convex room the overhang lies behind the neighbouring
 //! surfaces, so a wall can slide along its normal (the box's size and position) without leaving a gap.
 
-use super::room_init::RoomEstimate;
 use crate::scene::{rectangle_mesh, Camera, Emitter, Material, Object, Pose, RenderSettings, Scene};
+use crate::vision::RoomEstimate;
 use glam::{EulerRot, Mat4, Quat, Vec3};
 
 /// Object names of the room's surfaces and the axis each slides along.

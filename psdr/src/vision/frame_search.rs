@@ -9,8 +9,8 @@
 //! truth in 7 of 12 real-furniture rooms, the search moved it by up to 8 off). The search runs on masks
 //! subsampled to about `SEARCH_LONG_SIDE` pixels; the chosen frame's layout is then made at full size.
 
+use super::room_init::RoomEstimate;
 use super::room_layout::{box_mask_iou, layout_room, LayoutEvidence, LayoutOptions};
-use super::RoomEstimate;
 use crate::base::Intrinsics;
 use crate::error::{Error, Result};
 use glam::{Quat, Vec3};
