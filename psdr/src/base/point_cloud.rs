@@ -18,10 +18,15 @@ impl Intrinsics {
 
     /// The camera-space point at pixel (x, y)'s centre with depth z.
     pub fn point(&self, x: usize, y: usize, z: f32) -> Vec3 {
+        self.ray(x as f32 + 0.5, y as f32 + 0.5) * z
+    }
+
+    /// The ray through continuous pixel position (px, py) (pixel corners at integers), scaled to z = 1.
+    pub fn ray(&self, px: f32, py: f32) -> Vec3 {
         let aspect = self.width as f32 / self.height as f32;
-        let ndc_x = 2.0 * (x as f32 + 0.5) / self.width as f32 - 1.0;
-        let ndc_y = 1.0 - 2.0 * (y as f32 + 0.5) / self.height as f32;
-        Vec3::new(ndc_x * self.tan_half_fov_y * aspect * z, ndc_y * self.tan_half_fov_y * z, z)
+        let ndc_x = 2.0 * px / self.width as f32 - 1.0;
+        let ndc_y = 1.0 - 2.0 * py / self.height as f32;
+        Vec3::new(ndc_x * self.tan_half_fov_y * aspect, ndc_y * self.tan_half_fov_y, 1.0)
     }
 }
 

@@ -1,7 +1,7 @@
 //! The room's frame refined by how well its layout covers the segmentation (the paper's IoU criterion). A
 //! wrong yaw, pitch or roll moves the wall feet the layout reads off the floor-wall contacts, and the box then
-//! covers the masks worse; so each start frame's layout is scored by its mean mask IoU (`box_mask_iou`) and
-//! the best one improved by a compass search over small rotations about the room's up (yaw) and, unless the
+//! covers the masks worse; so the start frame's layout is scored by its mean mask IoU (`box_mask_iou`) and
+//! improved by a compass search over small rotations about the room's up (yaw) and, unless the
 //! start's up is to be kept, the camera's right (pitch) and view axis (roll): steps of 2 degrees halved down
 //! to 1/8 degree. The masks say little about pitch (all walls are one class, so a wall-wall corner leaves no
 //! boundary; the layout reproduces the floor-wall and wall-ceiling boundaries at almost any pitch): the
@@ -20,8 +20,6 @@ const SEARCH_LONG_SIDE: usize = 320;
 
 /// The frame kept and its layout.
 pub struct FrameChoice {
-    /// Which start it came from (index into the starts).
-    pub start: usize,
     pub up: Vec3,
     pub x: Vec3,
     /// Angle (degrees) the search turned the start's up by.
@@ -47,13 +45,8 @@ pub struct FrameStart {
     pub keep_up: bool,
 }
 
-/// The best of the start frames by layout IoU, refined by the compass search.
-pub fn search_frame(
-    starts: &[FrameStart],
-    masks: [&[bool]; 3],
-    k: &Intrinsics,
-    camera_height: f32,
-) -> Result<FrameChoice> {
+/// The start frame turned by the compass search on its layout's IoU.
+pub fn search_frame(start: FrameStart, masks: [&[bool]; 3], k: &Intrinsics, camera_height: f32) -> Result<FrameChoice> {
     let (w, h) = (k.width, k.height);
     let step = w.max(h).div_ceil(SEARCH_LONG_SIDE).max(1);
     let small: Vec<Vec<bool>> = masks.iter().map(|m| subsample(m, w, h, step)).collect();
@@ -64,24 +57,16 @@ pub fn search_frame(
         let (e, _) = layout_room(up, x, sm, &sk, camera_height, &opts).ok()?;
         Some(box_mask_iou(&e, &sk, sm[0], sm[1], sm[2]))
     };
-    let mut best: Option<(usize, Vec3, Vec3, f32)> = None;
-    for (i, st) in starts.iter().enumerate() {
-        if let Some(s) = score(st.up, st.x) {
-            if best.is_none_or(|b| s > b.3) {
-                best = Some((i, st.up, st.x, s));
-            }
-        }
-    }
-    let (start, start_up, start_x, mut best_score) =
-        best.ok_or_else(|| Error::Invalid("room layout: no start frame gives a layout".into()))?;
-    let (mut up, mut x) = (start_up, start_x);
+    let mut best_score = score(start.up, start.x)
+        .ok_or_else(|| Error::Invalid("room layout: the start frame gives no layout".into()))?;
+    let (mut up, mut x) = (start.up, start.x);
     let mut delta = 2f32.to_radians();
     while delta >= 0.125f32.to_radians() * 0.99 {
         let mut improved = true;
         while improved {
             improved = false;
             // The camera's right turns the pitch, its view axis the roll, the room's up the yaw.
-            let axes: &[Vec3] = if starts[start].keep_up { &[up] } else { &[Vec3::X, Vec3::Z, up] };
+            let axes: &[Vec3] = if start.keep_up { &[up] } else { &[Vec3::X, Vec3::Z, up] };
             for &axis in axes {
                 for sign in [1.0f32, -1.0] {
                     let q = Quat::from_axis_angle(axis, sign * delta);
@@ -98,6 +83,6 @@ pub fn search_frame(
     }
     let (layout, evidence) = layout_room(up, x, masks, k, camera_height, &opts)?;
     let iou = box_mask_iou(&layout, k, masks[0], masks[1], masks[2]);
-    let turned_deg = up.dot(start_up).clamp(-1.0, 1.0).acos().to_degrees();
-    Ok(FrameChoice { start, up, x, turned_deg, layout, evidence, iou })
+    let turned_deg = up.dot(start.up).clamp(-1.0, 1.0).acos().to_degrees();
+    Ok(FrameChoice { up, x, turned_deg, layout, evidence, iou })
 }

@@ -3,9 +3,8 @@
 //! a network's is not, and then its room comes out tilted and bent (on a real living-room photo: pitch -15.6
 //! degrees where the photo's is about -26). The depth-free layout (`layout_room`: the photo's lines'
 //! Manhattan frame, the floor-wall and wall-ceiling contacts of the segmentation, the camera-height prior) does
-//! not rest on the depth's values at all; its frame is the lines' or the affine depth's, whichever gives the
-//! layout that covers the segmentation best, turned further by the same score (`search_frame`). Of
-//! the two boxes the one whose floor, walls and ceiling cover the
+//! not rest on the depth's values at all; its frame is the lines' where they give a vertical of their own,
+//! else the affine depth's turned by the layout's mask IoU (`search_frame`). Of the two boxes the one whose floor, walls and ceiling cover the
 //! segmentation's better is kept (the paper's IoU criterion; a tie keeps the affine one); when it is the
 //! layout, the depth is mapped onto it by its order alone (`fit_monotone_depth`), so furniture gets depths
 //! consistent with the room it stands in. Both boxes' scores, the frame's source and the depth's rank
@@ -93,31 +92,18 @@ pub fn check_against_layout(
         let (up, ax, _) = estimate_axes(e);
         (up, ax)
     });
-    // Start frames: the photo's lines' (where they give one near the depth's up) and the affine depth's; the
-    // one whose layout covers the masks best, refined by the same score (`search_frame`).
-    let mut starts = vec![];
-    let mut names = vec![];
-    let mut frame_angle_deg = None;
+    // The start frame: the photo's lines' where they give a vertical near the depth's up, else the affine
+    // depth's (turned by the masks' IoU, which cannot tell pitches apart, so the lines' up is kept).
     let lines = frame_from_lines(photo, fov_y_deg, up0, x0);
-    match &lines {
-        Ok((up, x, angle)) => {
-            starts.push(FrameStart { up: *up, x: *x, keep_up: true });
-            names.push("lines".to_string());
-            frame_angle_deg = Some(*angle);
+    let (start, source, frame_angle_deg) = match lines {
+        Ok((up, x, angle)) => (FrameStart { up, x, keep_up: true }, "lines".to_string(), Some(angle)),
+        Err(why) if affine.is_some() => {
+            (FrameStart { up: up0, x: x0, keep_up: false }, format!("depth (lines: {why})"), None)
         }
-        Err(why) => names.push(format!("depth (lines: {why})")),
-    }
-    // The depth's frame only where the lines give none: the masks' IoU, which chooses between starts, cannot
-    // tell their pitches apart.
-    if lines.is_err() && affine.is_some() {
-        starts.push(FrameStart { up: up0, x: x0, keep_up: false });
-    }
-    if starts.is_empty() {
-        let why = lines.err().unwrap_or_default();
-        return Err(Error::Invalid(format!("room layout: no frame: the depth gives no room and {why}")));
-    }
-    let choice = search_frame(&starts, masks, k, camera_height)?;
-    let frame = format!("{}, turned {:.2} degrees by the masks' IoU", names[choice.start], choice.turned_deg);
+        Err(why) => return Err(Error::Invalid(format!("room layout: no frame: the depth gives no room and {why}"))),
+    };
+    let choice = search_frame(start, masks, k, camera_height)?;
+    let frame = format!("{source}, turned {:.2} degrees by the masks' IoU", choice.turned_deg);
     let (layout, evidence, box_iou_layout) = (choice.layout, choice.evidence, choice.iou);
     let mut check = LayoutCheck {
         frame,

@@ -59,7 +59,7 @@ pub struct RoomEstimate {
     pub floor_inliers: usize,
 }
 
-fn median(mut v: Vec<f32>) -> Option<f32> {
+pub(super) fn median(mut v: Vec<f32>) -> Option<f32> {
     if v.is_empty() {
         return None;
     }

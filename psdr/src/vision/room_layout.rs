@@ -7,7 +7,7 @@
 //! contact pixel's ray meets its wall at the ceiling's height. No depth value is used: the network's depth
 //! then only has to be right in its order (`vision::fit_monotone_depth` maps it onto this box).
 
-use super::room_init::{box_estimate, BoxAxes, RoomEstimate};
+use super::room_init::{box_estimate, median, BoxAxes, RoomEstimate};
 use crate::base::Intrinsics;
 use crate::error::{Error, Result};
 use glam::{Mat3, Vec3};
@@ -36,22 +36,6 @@ pub struct LayoutEvidence {
     pub contacts_on_walls: f32,
     /// Wall-ceiling contact pixels that measured the ceiling's height.
     pub ceiling_points: usize,
-}
-
-/// The ray through continuous pixel position (px, py) in camera space (x right, y up, z forward), z = 1.
-fn ray(k: &Intrinsics, px: f32, py: f32) -> Vec3 {
-    let aspect = k.width as f32 / k.height as f32;
-    let ndc_x = 2.0 * px / k.width as f32 - 1.0;
-    let ndc_y = 1.0 - 2.0 * py / k.height as f32;
-    Vec3::new(ndc_x * k.tan_half_fov_y * aspect, ndc_y * k.tan_half_fov_y, 1.0)
-}
-
-fn median(mut v: Vec<f32>) -> Option<f32> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f32::total_cmp);
-    Some(v[v.len() / 2])
 }
 
 /// The axes of an estimate's camera, in camera coordinates (x right, y up, z forward).
@@ -100,7 +84,7 @@ pub fn layout_room(
     for px in 0..w {
         for py in 1..h {
             if floor[py * w + px] && walls[(py - 1) * w + px] {
-                if let Some(p) = on_floor(ray(k, px as f32 + 0.5, py as f32)) {
+                if let Some(p) = on_floor(k.ray(px as f32 + 0.5, py as f32)) {
                     let f = xz(p);
                     contacts.push((px, py as f32, f, (f[0] * f[0] + f[1] * f[1]).sqrt()));
                 }
@@ -198,7 +182,7 @@ pub fn layout_room(
     let floor_pts: Vec<[f32; 2]> = (0..w * h)
         .filter(|&i| floor[i])
         .step_by(((w * h) / 20000).max(1))
-        .filter_map(|i| on_floor(ray(k, (i % w) as f32 + 0.5, (i / w) as f32 + 0.5)).map(xz))
+        .filter_map(|i| on_floor(k.ray((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)).map(xz))
         .collect();
     for side in 0..4 {
         if !seen[side] {
@@ -220,7 +204,7 @@ pub fn layout_room(
     for px in 0..w {
         for py in 1..h {
             if walls[py * w + px] && ceiling[(py - 1) * w + px] {
-                let d = ray(k, px as f32 + 0.5, py as f32);
+                let d = k.ray(px as f32 + 0.5, py as f32);
                 if let Some((t, side)) = exit(d).filter(|e| seen[e.1]) {
                     let _ = side;
                     heights.push(camera_height + t * d.dot(up));
@@ -239,7 +223,7 @@ pub fn layout_room(
                 .filter(|&i| walls[i])
                 .step_by(((w * h) / 20000).max(1))
                 .filter_map(|i| {
-                    let d = ray(k, (i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+                    let d = k.ray((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
                     exit(d).filter(|e| seen[e.1]).map(|(t, _)| camera_height + t * d.dot(up))
                 })
                 .fold(camera_height, f32::max);
@@ -283,7 +267,7 @@ pub fn box_view(e: &RoomEstimate, k: &Intrinsics) -> Vec<Option<(f32, BoxSurface
     let o = Vec3::new(0.0, e.camera_height, 0.0);
     (0..k.width * k.height)
         .map(|i| {
-            let d = ray(k, (i % k.width) as f32 + 0.5, (i / k.width) as f32 + 0.5);
+            let d = k.ray((i % k.width) as f32 + 0.5, (i / k.width) as f32 + 0.5);
             let r = m * d;
             let mut best: Option<(f32, BoxSurface)> = None;
             for (axis, lo, hi) in [(0usize, lo.x, hi.x), (1, lo.y, hi.y), (2, lo.z, hi.z)] {
