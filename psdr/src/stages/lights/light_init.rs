@@ -59,8 +59,11 @@ pub fn init_lights(scene: &mut Scene, opts: &LightInitOptions) -> Vec<String> {
         n as f32 >= opts.unseen_wall_fraction * ids.len().max(1) as f32
     };
     scene.objects.retain(|o| o.emitter.is_none());
-    scene.materials.push(Material::diffuse("light", Vec3::splat(0.8)));
-    let m = scene.materials.len() - 1;
+    // The panels' material, made once (a given geometry may have one by that name, or this may run twice).
+    let m = scene.material_index("light").unwrap_or_else(|| {
+        scene.materials.push(Material::diffuse("light", Vec3::splat(0.8)));
+        scene.materials.len() - 1
+    });
     let cam = scene.camera.clone();
     let tan_y = (cam.fov_y_deg.to_radians() * 0.5).tan();
     let tan_x = tan_y * cam.width as f32 / cam.height.max(1) as f32;
