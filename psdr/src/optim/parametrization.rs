@@ -69,6 +69,12 @@ pub struct ParamSpec {
     pub lower: f32,
     #[serde(with = "upper_bound")]
     pub upper: f32,
+    /// Per-component bounds on top of `lower`/`upper` (empty: none); a translation kept inside a box whose
+    /// sides differ per axis (a light inside the room).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lower_each: Vec<f32>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub upper_each: Vec<f32>,
     pub lr: f64,
     pub schedule: Schedule,
     /// θ when the spec was made: the value of locked components, and θ₀ of `UniformLog`.
@@ -152,6 +158,8 @@ impl ParamSpec {
             space,
             lower,
             upper,
+            lower_each: vec![],
+            upper_each: vec![],
             lr,
             schedule: Schedule::Constant,
             start,
@@ -187,6 +195,24 @@ impl ParamSpec {
         }
         if matches!(self.space, Space::Log | Space::UniformLog) && self.start.iter().any(|&v| v <= 0.0) {
             return bad(format!("a log parametrisation needs positive values, the start is {:?}", self.start));
+        }
+        for (each, side) in [(&self.lower_each, "min"), (&self.upper_each, "max")] {
+            if !each.is_empty() && (each.len() != self.start.len() || !each.iter().all(|v| v.is_finite())) {
+                return bad(format!(
+                    "{side} has {} finite entries for {} components",
+                    each.len(),
+                    self.start.len()
+                ));
+            }
+            if !each.is_empty() && self.space == Space::Range {
+                return bad(format!("a range parametrisation takes one {side}, not one per component"));
+            }
+        }
+        if (0..self.start.len()).any(|i| self.bound(i).0 > self.bound(i).1) {
+            return bad(format!(
+                "per-component bounds {:?}..{:?} are empty somewhere",
+                self.lower_each, self.upper_each
+            ));
         }
         if self.free.len() != self.start.len() {
             return bad(format!("free has {} entries for {} components", self.free.len(), self.start.len()));
@@ -246,21 +272,34 @@ impl ParamSpec {
         }
     }
 
+    /// Component i's bounds: the common ones tightened by the per-component ones.
+    fn bound(&self, i: usize) -> (f64, f64) {
+        let lo = self.lower_each.get(i).map_or(self.lower, |&v| v.max(self.lower));
+        let hi = self.upper_each.get(i).map_or(self.upper, |&v| v.min(self.upper));
+        (lo as f64, hi as f64)
+    }
+
     fn range(&self) -> f64 {
         self.upper as f64 - self.lower as f64
     }
 
     /// Projects u so that every θ component lies in [lower, upper].
     pub fn project(&self, u: &mut [f64]) {
-        let (lo, hi) = (self.lower as f64, self.upper as f64);
         match self.space {
-            Space::Linear => u.iter_mut().for_each(|v| *v = v.clamp(lo, hi)),
-            Space::Log => u.iter_mut().for_each(|v| *v = v.clamp(lo.max(1e-30).ln(), hi.ln())),
+            Space::Linear => u.iter_mut().enumerate().for_each(|(i, v)| {
+                let (lo, hi) = self.bound(i);
+                *v = v.clamp(lo, hi)
+            }),
+            Space::Log => u.iter_mut().enumerate().for_each(|(i, v)| {
+                let (lo, hi) = self.bound(i);
+                *v = v.clamp(lo.max(1e-30).ln(), hi.ln())
+            }),
             Space::Range => u.iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0)),
             Space::UniformLog => {
                 // The tightest bound over components: θ₀ᵢ·e^u within [lo, hi] for every i.
                 let (mut ulo, mut uhi) = (f64::NEG_INFINITY, f64::INFINITY);
-                for &s in &self.start {
+                for (i, &s) in self.start.iter().enumerate() {
+                    let (lo, hi) = self.bound(i);
                     ulo = ulo.max((lo.max(1e-30) / s as f64).ln());
                     uhi = uhi.min((hi / s as f64).ln());
                 }
@@ -285,12 +324,48 @@ mod tests {
             free: vec![true, false, true],
             lower: f32::NEG_INFINITY,
             upper: f32::INFINITY,
+            lower_each: vec![-3.0, -1.0, -4.0],
+            upper_each: vec![3.0, 1.0, 0.5],
             lr: 0.01,
             schedule: Schedule::Step { every: 5, gamma: 0.5 },
             start: vec![1.0, 0.0, -2.0],
         };
         let back: ParamSpec = serde_json::from_str(&serde_json::to_string(&spec).unwrap()).unwrap();
         assert_eq!(back, spec);
+    }
+
+    /// Per-component bounds keep each component in its own interval, in linear and log spaces, and an
+    /// interval that excludes the common bounds' is refused.
+    #[test]
+    fn per_component_bounds_project_each_component() {
+        let mut spec = ParamSpec {
+            path: "light/a/radiance".parse().unwrap(),
+            space: Space::Log,
+            free: vec![true; 3],
+            lower: 1e-6,
+            upper: f32::INFINITY,
+            lower_each: vec![],
+            upper_each: vec![],
+            lr: 0.05,
+            schedule: Schedule::Constant,
+            start: vec![1.0; 3],
+        };
+        spec.lower_each = vec![0.5, 2.0, 1e-3];
+        spec.upper_each = vec![1.0, 4.0, 8.0];
+        spec.check().unwrap();
+        let mut u = vec![0.0f64, 0.0, 5.0f64.ln()]; // θ = 1, 1, 5
+        spec.project(&mut u);
+        let theta = spec.to_theta(&u);
+        assert!((theta[0] - 1.0).abs() < 1e-6 && (theta[1] - 2.0).abs() < 1e-6 && (theta[2] - 5.0).abs() < 1e-5);
+        spec.space = Space::Linear;
+        let mut u = vec![-1.0, 9.0, 3.0];
+        spec.project(&mut u);
+        assert_eq!(u, vec![0.5, 4.0, 3.0]);
+        spec.lower = 5.0;
+        assert!(spec.check().is_err(), "component 0 has no room between max(5, 0.5) and 1");
+        spec.lower = 1e-6;
+        spec.upper_each = vec![1.0, 4.0];
+        assert!(spec.check().is_err(), "two bounds for three components");
     }
 
     /// θ → u → θ is the identity in every space, and the chain rule of grad_u matches differences of to_theta.
@@ -304,6 +379,8 @@ mod tests {
                 free: vec![true; 3],
                 lower: 1e-3,
                 upper: 1e3,
+                lower_each: vec![],
+                upper_each: vec![],
                 lr: 0.1,
                 schedule: Schedule::Constant,
                 start: start.clone(),

@@ -50,6 +50,12 @@ fn float(v: &Dynamic, key: &str) -> Result<f64> {
         .map_err(|_| Error::Invalid(format!("optimize: '{key}' must be a number, found {}", v.type_name())))
 }
 
+/// One number per component: `min: [x0, y0, z0]`.
+fn floats(v: &Dynamic, key: &str) -> Result<Vec<f32>> {
+    let a = v.clone().try_cast::<Array>().ok_or_else(|| Error::Invalid(format!("optimize: '{key}' must be an array")))?;
+    a.iter().map(|x| float(x, key).map(|f| f as f32)).collect()
+}
+
 fn count(m: &Map, key: &str, default: i64) -> Result<u32> {
     let v = int(m, key, default)?;
     u32::try_from(v).map_err(|_| Error::Invalid(format!("optimize: '{key}' = {v} is out of range")))
@@ -121,6 +127,8 @@ pub fn specs(scene: &Scene, opts: &Map) -> Result<Vec<ParamSpec>> {
                 match k.as_str() {
                     "select" => {}
                     "lr" => spec.lr = float(v, "lr")?,
+                    "min" if v.is_array() => spec.lower_each = floats(v, "min")?,
+                    "max" if v.is_array() => spec.upper_each = floats(v, "max")?,
                     "min" => spec.lower = float(v, "min")? as f32,
                     "max" => spec.upper = float(v, "max")? as f32,
                     "schedule" => spec.schedule = schedule(v)?,
