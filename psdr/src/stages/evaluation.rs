@@ -315,6 +315,44 @@ pub fn mask_ious(fitted: &Scene, fitted_frame: &Frame, masks: &Instances, merged
     Some(json!({ "objects": per_object, "median": median, "worst": values.first() }))
 }
 
+/// Every true light (windows apart) matched to the nearest fitted one not yet taken, the brightest first:
+/// the distance of their centres in metres (in the camera's frame, as everything here), and the worst.
+fn light_position_errors(fitted: &Scene, truth: &Scene) -> Value {
+    let lights = |s: &Scene| -> Vec<(String, Vec3, f32)> {
+        s.objects
+            .iter()
+            .filter(|o| !o.name.to_ascii_lowercase().contains("window"))
+            .filter_map(|o| {
+                let e = o.emitter.as_ref()?;
+                let (lo, hi) = bounds(o)?;
+                let power = e.radiance.element_sum() * (hi - lo).length_squared();
+                Some((o.name.clone(), to_camera(&s.camera, (lo + hi) / 2.0), power))
+            })
+            .collect()
+    };
+    let (fit, mut want) = (lights(fitted), lights(truth));
+    want.sort_by(|a, b| b.2.total_cmp(&a.2));
+    let mut used = vec![false; fit.len()];
+    let mut worst: Option<f32> = None;
+    let mut matched = vec![];
+    for (name, centre, _) in &want {
+        let best = (0..fit.len()).filter(|&k| !used[k]).min_by(|&a, &b| {
+            (fit[a].1 - *centre).length().total_cmp(&(fit[b].1 - *centre).length())
+        });
+        let entry = match best {
+            Some(k) => {
+                used[k] = true;
+                let e = (fit[k].1 - *centre).length();
+                worst = Some(worst.map_or(e, |w: f32| w.max(e)));
+                json!({ "truth": name, "fitted": fit[k].0, "error_m": e })
+            }
+            None => json!({ "truth": name, "fitted": null }),
+        };
+        matched.push(entry);
+    }
+    json!({ "lights": matched, "worst_error_m": worst })
+}
+
 /// The errors of `fitted` against `truth`. `models`: fitted object name -> retrieved model name (a ground-truth
 /// object's name is its model's); `render` and `photo`: RGB of the camera's size; `masks`: the photo's
 /// instances and the instances merged into each object, for the objects' mask IoU (`mask_ious`).
@@ -377,6 +415,7 @@ pub fn evaluate(
             .filter(|o| o.emitter.is_some() && o.name.to_ascii_lowercase().contains("window") == window)
             .count()
     };
+    let light_positions = light_position_errors(fitted, truth);
     json!({
         "room": { "fitted": room.0, "truth": room.1,
                   "across_error_rel": rel("across"), "along_error_rel": rel("along"), "height_error_rel": rel("height"),
@@ -388,7 +427,8 @@ pub fn evaluate(
         "objects_extra": fit.len() - found,
         "models_retrieved": retrieved,
         "lights": { "fitted": lights(fitted, false), "truth": lights(truth, false),
-                    "truth_windows": lights(truth, true), "fitted_windows": lights(fitted, true) },
+                    "truth_windows": lights(truth, true), "fitted_windows": lights(fitted, true),
+                    "positions": light_positions },
         "image": { "rmse_rel_1_8": relative_rmse_downsampled(render, photo, w, h, 8), "ssim": ssim_luminance(render, photo, w, h) },
         "albedo": albedo_errors(truth, fitted_frame, truth_frame),
         "mask_iou": masks.and_then(|(m, merged)| mask_ious(fitted, fitted_frame, m, merged)),
