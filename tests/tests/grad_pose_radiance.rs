@@ -59,6 +59,26 @@ fn shadow_seen_after_a_bounce_off_the_moving_occluder() {
     check(&s, "object/blocker/yaw", &mean_radiance(), 0.01, OPTS);
 }
 
+/// A ceiling light moved along the ceiling and resized, as the material stage's joint fit moves lights
+/// (`light_pose_params`): L2 to a target lit by the light 0.3 m to the side and 1.2x as large. The light is
+/// sampled on its own surface, so its points move with it (interior term); its edges move the cube's shadow.
+#[test]
+fn a_ceiling_light_moved_along_the_ceiling_and_resized() {
+    let s = room_with_cube(0.0);
+    let light = s.object_index("light").unwrap();
+    let mut target = s.clone();
+    target.objects[light].pose.translation.x += 0.3;
+    target.objects[light].pose.scale *= glam::Vec3::new(1.2, 1.2, 1.0);
+    target.settings.spp = 256;
+    let t = render_cpu(&SceneData::build(&target).unwrap(), &target.settings, &|_, _| {});
+    let loss = ImageLoss::L2To { output: Output::Radiance, target: t.radiance };
+    // In the ceiling's plane (x, z; y would push it through the ceiling) and in its own plane (scale x, y).
+    let (a, f) = check_components(&s, "object/light/translation", &loss, 0.01, OPTS, &[0, 2]);
+    assert!(a.mean[0] < 0.0 && f.mean[0].abs() > 4.0 * f.std_err[0], "toward the target: {:?} {:?}", a.mean, f.mean);
+    let (a, _) = check_components(&s, "object/light/scale", &loss, 0.01, OPTS, &[0, 1]);
+    assert!(a.mean[0] < 0.0 && a.mean[1] < 0.0, "growing toward the target lowers the loss: {:?}", a.mean);
+}
+
 /// The room case: L2 to a target with the cube moved, translation along the floor.
 #[test]
 fn cube_on_the_floor_and_lifted() {

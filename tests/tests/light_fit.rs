@@ -68,7 +68,7 @@ fn two_of_six_lit() -> LitRoom {
 fn two_true_lights_among_six_candidates() {
     let (candidates, names, truth_rad, photo) = two_of_six_lit();
     let t = std::time::Instant::now();
-    let fit = fit_lights(&mut CpuBackend, &candidates, &names, &photo, &LightFitOptions::default()).unwrap();
+    let fit = fit_lights(&mut CpuBackend, &candidates, &names, &photo, &[], &LightFitOptions::default()).unwrap();
     eprintln!("{fit:?} in {:.1} s", t.elapsed().as_secs_f32());
     let kept: Vec<&String> = fit.names.iter().zip(&fit.kept).filter(|(_, k)| **k).map(|(n, _)| n).collect();
     assert_eq!(kept, vec!["light_00", "light_21"], "backward elimination keeps the two true lights");
@@ -97,7 +97,7 @@ fn a_clipped_photo_fits_the_lights_from_what_it_recorded() {
     let clipped: Vec<f32> = photo.iter().map(|v| (v * exposure).min(1.0)).collect();
     let share = clipped.chunks(3).filter(|c| c.iter().any(|v| *v >= 1.0)).count() as f32 / brightest.len() as f32;
     assert!(share > 0.1, "only {share} of the pixels clip");
-    let fit = fit_lights(&mut CpuBackend, &candidates, &names, &clipped, &LightFitOptions::default()).unwrap();
+    let fit = fit_lights(&mut CpuBackend, &candidates, &names, &clipped, &[], &LightFitOptions::default()).unwrap();
     for (n, rad) in truth_rad {
         let i = fit.names.iter().position(|x| x == n).unwrap();
         for c in 0..3 {
@@ -165,7 +165,8 @@ fn candidates_avoid_the_view_and_fit_a_light_they_do_not_contain() {
     t.settings.max_depth = 3;
     let photo = render_cpu(&SceneData::build(&t).unwrap(), &t.settings, &|_, _| {}).radiance;
     let fit =
-        fit_lights(&mut CpuBackend, &room, &names, &photo, &LightFitOptions { spp: 32, ..Default::default() }).unwrap();
+        fit_lights(&mut CpuBackend, &room, &names, &photo, &[], &LightFitOptions { spp: 32, ..Default::default() })
+            .unwrap();
     eprintln!("kept {:?}, relative RMS {:.3}, luminance ratio {:.4}", fit.kept, fit.relative_rms, fit.luminance_ratio);
     assert!((fit.luminance_ratio - 1.0).abs() < 0.05, "{}", fit.luminance_ratio);
     assert!(fit.kept.iter().filter(|k| **k).count() < names.len(), "nothing removed");
@@ -246,7 +247,7 @@ fn misplaced_lights_move_back_to_where_the_photo_was_lit() {
     }
     let t = std::time::Instant::now();
     let placed =
-        refine_light_placement(&mut CpuBackend, &mut start, &photo, &LightPlacementOptions::default()).unwrap();
+        refine_light_placement(&mut CpuBackend, &mut start, &photo, &[], &LightPlacementOptions::default()).unwrap();
     eprintln!("{placed:?} in {:.1} s", t.elapsed().as_secs_f32());
     for name in ["light_a", "light_b"] {
         let (got, want) = (

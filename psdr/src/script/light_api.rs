@@ -3,6 +3,7 @@
 //! need (in place); the fit goes into result.json as `light_fit`. `windows_init(s, obs)` adds the windows the
 //! photo shows as area lights. `place_lights(s, photo, #{step, min_step, size_factor, spp, downsample})` moves
 //! and sizes the lights by pattern search (`stages::light_placement`), recorded as `light_placement`.
+//! `light_pose_params(s, name, opts)` gives the `optimize` entries that move a light by gradient.
 
 use super::api_support::{check_photo, on_backend, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
@@ -17,6 +18,22 @@ use rhai::{Array, Dynamic, Engine, Map};
 
 fn number(k: &str, v: &Dynamic, what: &str) -> crate::Result<f64> {
     option_number(what, k, v)
+}
+
+/// A true/false option (false when absent).
+fn flag(what: &str, opts: &Map, key: &str) -> crate::Result<bool> {
+    opts.get(key).map_or(Ok(false), |v| {
+        v.as_bool().map_err(|_| Error::Invalid(format!("{what}: '{key}' must be true or false")))
+    })
+}
+
+/// The masks of an options map's `segments` (material name -> mask, as `material_segments` gives), none without.
+fn surface_masks(what: &str, scene: &SceneHandle, photo: &Tensor, opts: &Map) -> crate::Result<Vec<Vec<f32>>> {
+    let Some(v) = opts.get("segments") else { return Ok(vec![]) };
+    let map = v.clone().try_cast::<Map>().ok_or_else(|| {
+        Error::Invalid(format!("{what}: 'segments' maps material names to masks (material_segments)"))
+    })?;
+    Ok(super::material_api::segments(what, scene, photo, &map)?.1.into_iter().map(|s| s.mask).collect())
 }
 
 fn lights_init(scene: &mut SceneHandle, opts: &Map) -> crate::Result<Array> {
@@ -45,7 +62,9 @@ fn lights_init(scene: &mut SceneHandle, opts: &Map) -> crate::Result<Array> {
 
 fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> crate::Result<Map> {
     let mut o = LightFitOptions::default();
-    for (k, v) in opts {
+    let segments = surface_masks("fit_lights", scene, photo, opts)?;
+    o.white = flag("fit_lights", opts, "white")?;
+    for (k, v) in opts.iter().filter(|(k, _)| !["segments", "white"].contains(&k.as_str())) {
         let n = number(k, v, "fit_lights")?;
         match k.as_str() {
             "downsample" => o.downsample = n.max(1.0) as usize,
@@ -55,7 +74,8 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
             "seed" => o.seed = n.max(0.0) as u32,
             other => {
                 return Err(Error::Invalid(format!(
-                    "fit_lights: unknown option '{other}' (downsample, spp, max_depth, removal_threshold, seed)"
+                    "fit_lights: unknown option '{other}' (downsample, spp, max_depth, removal_threshold, seed, \
+                     segments, white)"
                 )))
             }
         }
@@ -63,7 +83,7 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
     let img = photo.value();
     check_photo("fit_lights", &scene.0, img)?;
     let names: Vec<String> = scene.0.objects.iter().filter(|o| o.emitter.is_some()).map(|o| o.name.clone()).collect();
-    let f = on_backend(run, "fit_lights", |b| fit_lights(b, &scene.0, &names, &img.data, &o))?;
+    let f = on_backend(run, "fit_lights", |b| fit_lights(b, &scene.0, &names, &img.data, &segments, &o))?;
     // Kept lights get their radiance; the others leave the scene.
     scene
         .0
@@ -113,7 +133,9 @@ fn windows_init(scene: &mut SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::
 
 fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> crate::Result<Dynamic> {
     let mut o = LightPlacementOptions::default();
-    for (k, v) in opts {
+    let segments = surface_masks("place_lights", scene, photo, opts)?;
+    o.render.white = flag("place_lights", opts, "white")?;
+    for (k, v) in opts.iter().filter(|(k, _)| !["segments", "white"].contains(&k.as_str())) {
         let n = number(k, v, "place_lights")?;
         match k.as_str() {
             "step" => o.step = n as f32,
@@ -126,20 +148,72 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
             other => {
                 return Err(Error::Invalid(format!(
                     "place_lights: unknown option '{other}' (step, min_step, size_factor, min_size, max_size, spp, \
-                     downsample)"
+                     downsample, segments, white)"
                 )))
             }
         }
     }
     let img = photo.value();
     check_photo("place_lights", &scene.0, img)?;
-    let placed = on_backend(run, "place_lights", |b| refine_light_placement(b, &mut scene.0, &img.data, &o))?;
+    let placed =
+        on_backend(run, "place_lights", |b| refine_light_placement(b, &mut scene.0, &img.data, &segments, &o))?;
     let v = serde_json::to_value(&placed).map_err(|e| Error::Invalid(e.to_string()))?;
     run.borrow_mut().recorded.insert("light_placement".into(), v.clone());
     rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
 }
 
+/// `light_pose_params(s, name, #{size_range, lr, size_lr})`: `optimize` params entries that move light `name` by
+/// gradient along its own plane inside the room and resize it (`stages::light_motion`); none when it may not
+/// move.
+fn pose_params(scene: &SceneHandle, name: &str, opts: &Map) -> crate::Result<Array> {
+    let (mut range, mut lr, mut size_lr) = ((0.7f32, 1.4f32), 0.02, 0.02);
+    for (k, v) in opts {
+        match k.as_str() {
+            "size_range" => {
+                let a = v.clone().try_cast::<Array>().filter(|a| a.len() == 2).ok_or_else(|| {
+                    Error::Invalid("light_pose_params: size_range is [smallest, largest] of the size now".into())
+                })?;
+                let f = |x: &Dynamic| number("size_range", x, "light_pose_params").map(|f| f as f32);
+                range = (f(&a[0])?, f(&a[1])?);
+            }
+            "lr" => lr = number(k, v, "light_pose_params")?,
+            "size_lr" => size_lr = number(k, v, "light_pose_params")?,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "light_pose_params: unknown option '{other}' (size_range, lr, size_lr)"
+                )))
+            }
+        }
+    }
+    let m = crate::stages::light_motion(&scene.0, name, range)?;
+    let floats = |v: Vec3| -> Array { v.to_array().iter().map(|&f| Dynamic::from_float(f as f64)).collect() };
+    let mut out = Array::new();
+    if let (Some(axes), Some((lo, hi))) = (&m.plane_axes, m.translation) {
+        let mut t = Map::new();
+        t.insert("select".into(), format!("object/{name}/translation").into());
+        t.insert("free".into(), axes.clone().into());
+        t.insert("min".into(), floats(lo).into());
+        t.insert("max".into(), floats(hi).into());
+        t.insert("lr".into(), Dynamic::from_float(lr));
+        out.push(t.into());
+    }
+    let mut sc = Map::new();
+    sc.insert("select".into(), format!("object/{name}/scale").into());
+    sc.insert("free".into(), "xy".into());
+    sc.insert("min".into(), floats(m.scale.0).into());
+    sc.insert("max".into(), floats(m.scale.1).into());
+    sc.insert("lr".into(), Dynamic::from_float(size_lr));
+    out.push(sc.into());
+    Ok(out)
+}
+
 pub fn register(engine: &mut Engine, run: &RunRef) {
+    engine.register_fn("light_pose_params", |s: &mut SceneHandle, name: &str| -> Rr<Array> {
+        pose_params(s, name, &Map::new()).map_err(rhai_err)
+    });
+    engine.register_fn("light_pose_params", |s: &mut SceneHandle, name: &str, opts: Map| -> Rr<Array> {
+        pose_params(s, name, &opts).map_err(rhai_err)
+    });
     let r = run.clone();
     engine.register_fn("place_lights", move |s: &mut SceneHandle, photo: Tensor, opts: Map| -> Rr<Dynamic> {
         place(&r, s, &photo, &opts).map_err(rhai_err)

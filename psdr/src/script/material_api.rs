@@ -21,7 +21,12 @@ use crate::stages::{
 };
 use rhai::{Dynamic, Engine, Map};
 
-fn segments(what: &str, scene: &SceneHandle, photo: &Tensor, map: &Map) -> crate::Result<(Vec<f32>, Vec<Segment>)> {
+pub(super) fn segments(
+    what: &str,
+    scene: &SceneHandle,
+    photo: &Tensor,
+    map: &Map,
+) -> crate::Result<(Vec<f32>, Vec<Segment>)> {
     let img = photo.value();
     check_photo(what, &scene.0, img)?;
     let (w, h) = (img.width, img.height);

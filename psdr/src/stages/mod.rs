@@ -14,6 +14,7 @@ pub use evaluation::{evaluate, mask_ious, relative_rmse_downsampled, room_in_cam
 pub use lights::add_visible_windows;
 pub use lights::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use lights::{init_lights, LightInitOptions};
+pub use lights::{light_motion, LightMotion};
 pub use lights::{refine_light_placement, LightPlacement, LightPlacementOptions};
 pub use materials::material_segments;
 pub use materials::{

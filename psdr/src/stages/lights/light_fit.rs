@@ -23,11 +23,13 @@ pub struct LightFitOptions {
     /// A light is removed when that raises the fit's relative RMS error by less than this (0 keeps all).
     pub removal_threshold: f32,
     pub seed: u32,
+    /// One radiance per light for the three channels (`FitTarget::white_lights`).
+    pub white: bool,
 }
 
 impl Default for LightFitOptions {
     fn default() -> Self {
-        LightFitOptions { downsample: 8, spp: 64, max_depth: 3, removal_threshold: 0.01, seed: 0 }
+        LightFitOptions { downsample: 8, spp: 64, max_depth: 3, removal_threshold: 0.01, seed: 0, white: false }
     }
 }
 
@@ -66,7 +68,20 @@ pub(crate) fn downsample(data: &[f32], w: usize, h: usize, k: usize) -> (Vec<f32
 pub(crate) struct FitTarget {
     pub values: Vec<f32>,
     pub weights: Vec<f32>,
+    /// Per reduced pixel, the surface it shows (`with_segments`), or NO_SEGMENT.
+    pub segment: Vec<u32>,
+    pub segments: usize,
+    /// One radiance per light for the three channels (`white_lights`).
+    pub white: bool,
 }
+
+pub(crate) const NO_SEGMENT: u32 = u32::MAX;
+
+/// A reduced pixel belongs to a segment when this share of the photo pixels under it do.
+const SEGMENT_SHARE: f32 = 0.9;
+
+/// Alternations of the radiances' and the segments' albedo factors in `nnls_fit`.
+const ALBEDO_ROUNDS: usize = 4;
 
 impl FitTarget {
     pub(crate) fn new(photo: &[f32], w: usize, h: usize, k: usize) -> FitTarget {
@@ -79,7 +94,49 @@ impl FitTarget {
         if weights.iter().sum::<f32>() < 0.01 * weights.len() as f32 {
             weights.iter_mut().for_each(|w| *w = 1.0);
         }
-        FitTarget { values, weights }
+        let segment = vec![NO_SEGMENT; weights.len()];
+        FitTarget { values, weights, segment, segments: 0, white: false }
+    }
+
+    /// The same target, told which surface each pixel shows (`masks`: one per surface, 1 where the photo
+    /// shows it, the photo's size): then each surface's albedo is a free factor per colour channel of the fit,
+    /// relative to the scene's material now, and the lights explain only how the light varies across each
+    /// surface, not its colour (with the scene's materials still grey, a dark floor would
+    /// otherwise pull lights away from it). The largest surface keeps its material's albedo (the factor 1),
+    /// which fixes the radiances' scale.
+    /// The same target fitted by white lights: a light's colour and the colour of the surfaces it lights
+    /// cannot be told apart while the surfaces' albedos are free, so a coloured light may take on the colour
+    /// of the surface under it; white lights leave the colours to the material stage's fits.
+    pub(crate) fn white_lights(mut self, white: bool) -> FitTarget {
+        self.white = white;
+        self
+    }
+
+    pub(crate) fn with_segments(mut self, masks: &[Vec<f32>], w: usize, h: usize, k: usize) -> FitTarget {
+        let k = k.max(1);
+        let mut best = vec![(0.0f32, NO_SEGMENT); self.weights.len()];
+        for (s, m) in masks.iter().enumerate().filter(|(_, m)| m.len() == w * h) {
+            let rgb: Vec<f32> = m.iter().flat_map(|&v| [v.clamp(0.0, 1.0); 3]).collect();
+            let (share, _, _) = downsample(&rgb, w, h, k);
+            for (b, c) in best.iter_mut().zip(share.chunks(3)) {
+                if c[0] > b.0 {
+                    *b = (c[0], s as u32);
+                }
+            }
+        }
+        self.segment = best.iter().map(|&(share, s)| if share >= SEGMENT_SHARE { s } else { NO_SEGMENT }).collect();
+        self.segments = masks.len();
+        // The largest surface first: it keeps its albedo.
+        let count = |s: u32| self.segment.iter().filter(|&&x| x == s).count();
+        if let Some(largest) = (0..self.segments as u32).max_by_key(|&s| count(s)) {
+            self.segment.iter_mut().for_each(|x| {
+                *x = match *x {
+                    x if x == largest => NO_SEGMENT,
+                    x => x,
+                }
+            });
+        }
+        self
     }
 
     /// Sum of the squared weighted values: the norm the fits' relative errors divide by.
@@ -203,42 +260,81 @@ pub(crate) fn unit_render(
 
 /// Per channel, the non-negative least-squares radiances of the `active` basis images for `target` (its
 /// left-out pixels dropped): the radiances (zero for inactive ones) and the squared error summed over channels.
+/// With segments (`FitTarget::with_segments`) each segment's albedo factor per channel is fitted too,
+/// alternating with the radiances (each step least squares, so the error never rises); with
+/// `FitTarget::white_lights` each light has one radiance for the three channels.
 /// The error also counts every left-out (clipped) pixel the fit leaves darker than the photo: a clipped value
 /// is a lower bound, so a window or lamp the photo shows must stay at least that bright where it shows (without
 /// this, the light placement shrank a visible window freely, its own pixels being all clipped).
 pub(crate) fn nnls_fit(basis: &[Vec<f32>], target: &FitTarget, active: &[usize]) -> (Vec<[f32; 3]>, f64) {
     let kept: Vec<usize> = (0..target.weights.len()).filter(|&p| target.weights[p] > 0.0).collect();
-    let px = kept.len();
+    let free = target.segments > 0;
+    let groups: Vec<Vec<usize>> = if target.white { vec![vec![0, 1, 2]] } else { vec![vec![0], vec![1], vec![2]] };
     let mut rad = vec![[0.0f32; 3]; basis.len()];
+    // Per channel and segment, the albedo factor.
+    let mut albedo = vec![vec![1.0f64; target.segments]; 3];
+    let factor = |albedo: &[Vec<f64>], c: usize, p: usize| match target.segment[p] {
+        NO_SEGMENT => 1.0,
+        s => albedo[c][s as usize],
+    };
     let mut err = 0.0f64;
-    for c in 0..3 {
-        let cols: Vec<Vec<f64>> =
-            active.iter().map(|&i| kept.iter().map(|&p| basis[i][p * 3 + c] as f64).collect()).collect();
-        let b: Vec<f64> = kept.iter().map(|&p| target.values[p * 3 + c] as f64).collect();
-        let x = nnls(&cols, &b);
+    for g in &groups {
+        // Rows: every kept pixel of every channel of the group.
+        let rows: Vec<(usize, usize)> = g.iter().flat_map(|&c| kept.iter().map(move |&p| (c, p))).collect();
+        let unit = |i: usize, (c, p): (usize, usize)| basis[i][p * 3 + c] as f64;
+        let b: Vec<f64> = rows.iter().map(|&(c, p)| target.values[p * 3 + c] as f64).collect();
+        let scaled = |albedo: &[Vec<f64>]| -> Vec<Vec<f64>> {
+            active.iter().map(|&i| rows.iter().map(|&r| unit(i, r) * factor(albedo, r.0, r.1)).collect()).collect()
+        };
+        let mut x = nnls(&scaled(&albedo), &b);
+        for _ in 0..if free { ALBEDO_ROUNDS } else { 0 } {
+            // Each segment's factor per channel: least squares of the photo against the lights' render there.
+            let (mut num, mut den) = (vec![vec![0.0f64; target.segments]; 3], vec![vec![0.0f64; target.segments]; 3]);
+            for (q, &(c, p)) in rows.iter().enumerate() {
+                let s = target.segment[p];
+                if s != NO_SEGMENT {
+                    let m: f64 = active.iter().zip(&x).map(|(&i, xk)| unit(i, (c, p)) * xk).sum();
+                    num[c][s as usize] += b[q] * m;
+                    den[c][s as usize] += m * m;
+                }
+            }
+            for c in g.iter().copied() {
+                for s in 0..target.segments {
+                    if den[c][s] > 1e-30 {
+                        albedo[c][s] = (num[c][s] / den[c][s]).clamp(0.02, 50.0);
+                    }
+                }
+            }
+            x = nnls(&scaled(&albedo), &b);
+        }
         for (k, &i) in active.iter().enumerate() {
-            rad[i][c] = x[k] as f32;
+            g.iter().for_each(|&c| rad[i][c] = x[k] as f32);
         }
-        for p in 0..px {
-            let model: f64 = active.iter().enumerate().map(|(k, _)| cols[k][p] * x[k]).sum();
-            err += (model - b[p]).powi(2);
+        let model = |c: usize, p: usize| -> f64 {
+            factor(&albedo, c, p) * active.iter().zip(&x).map(|(&i, xk)| unit(i, (c, p)) * xk).sum::<f64>()
+        };
+        for (q, &(c, p)) in rows.iter().enumerate() {
+            err += (model(c, p) - b[q]).powi(2);
         }
-        for p in (0..target.weights.len()).filter(|&p| target.weights[p] == 0.0) {
-            let model: f64 = active.iter().enumerate().map(|(k, &i)| basis[i][p * 3 + c] as f64 * x[k]).sum();
-            err += (target.values[p * 3 + c] as f64 - model).max(0.0).powi(2);
+        for c in g.iter().copied() {
+            for p in (0..target.weights.len()).filter(|&p| target.weights[p] == 0.0) {
+                err += (target.values[p * 3 + c] as f64 - model(c, p)).max(0.0).powi(2);
+            }
         }
     }
     (rad, err)
 }
 
 /// Fits the radiances of the emitters named `lights` (objects of `scene` with an emitter) to `photo` (linear RGB,
-/// the camera's size), then removes the lights the photo does not need.
+/// the camera's size), then removes the lights the photo does not need. With `segments` (masks of the surfaces
+/// the photo shows; may be empty) each surface's albedo is free in the fit (`FitTarget::with_segments`).
 /// The unit renders run on `backend`.
 pub fn fit_lights(
     backend: &mut dyn Backend,
     scene: &Scene,
     lights: &[String],
     photo: &[f32],
+    segments: &[Vec<f32>],
     opts: &LightFitOptions,
 ) -> Result<LightFit> {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
@@ -261,7 +357,9 @@ pub fn fit_lights(
                 .ok_or_else(|| Error::Invalid(format!("light fit: '{n}' is not an emitter of the scene")))
         })
         .collect::<Result<_>>()?;
-    let target = FitTarget::new(photo, w, h, opts.downsample);
+    let target = FitTarget::new(photo, w, h, opts.downsample)
+        .with_segments(segments, w, h, opts.downsample)
+        .white_lights(opts.white);
     let progress = crate::progress::activity(format!("unit renders of {} lights", index.len()), Some(index.len()));
     let basis: Vec<Vec<f32>> = index
         .iter()
@@ -314,11 +412,40 @@ pub fn fit_lights(
 mod tests {
     use super::*;
 
+    /// Two lights, two surfaces (3 and 1 blocks of 8x8 pixels): the photo is light A's render at radiance 0.5,
+    /// with the smaller surface's albedo 0.4 of the scene's (the larger keeps the scene's). With the surfaces' albedos free the fit finds light A alone and no
+    /// error; with the scene's albedos as they are it needs light B to darken the second surface.
+    #[test]
+    fn free_surface_albedos_keep_the_lights_from_explaining_colour() {
+        let (w, h, k) = (32, 8, 8);
+        let a = [1.0f32, 0.8, 0.5, 0.3];
+        let b = [0.2f32, 0.3, 0.9, 0.6];
+        let block = |v: &[f32; 4]| -> Vec<f32> { (0..w * h).flat_map(|p| [v[(p % w) / k]; 3]).collect() };
+        let (ua, ub) = (downsample(&block(&a), w, h, k).0, downsample(&block(&b), w, h, k).0);
+        let albedo = [1.0f32, 1.0, 1.0, 0.4];
+        let photo: Vec<f32> = (0..w * h).flat_map(|p| [a[(p % w) / k] * albedo[(p % w) / k] * 0.5; 3]).collect();
+        let masks: Vec<Vec<f32>> = [[1.0f32, 1.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+            .iter()
+            .map(|m| (0..w * h).map(|p| m[(p % w) / k]).collect())
+            .collect();
+        let free = FitTarget::new(&photo, w, h, k).with_segments(&masks, w, h, k);
+        let (rad, err) = nnls_fit(&[ua.clone(), ub.clone()], &free, &[0, 1]);
+        assert!(err < 1e-10 && (rad[0][0] - 0.5).abs() < 1e-4 && rad[1][0] < 1e-4, "{rad:?} {err}");
+        let fixed = FitTarget::new(&photo, w, h, k);
+        let (rad, err) = nnls_fit(&[ua, ub], &fixed, &[0, 1]);
+        assert!(err > 1e-3 || rad[1][0] > 1e-3, "the scene's albedos must need B or leave an error: {rad:?} {err}");
+    }
+
     #[test]
     fn clipped_pixels_bound_the_fit_from_below_only() {
         // Two reduced pixels, grey: the first records the scene (0.5), the second is clipped (reads 1.0).
-        let target =
-            FitTarget { values: vec![0.5; 3].into_iter().chain(vec![1.0; 3]).collect(), weights: vec![1.0, 0.0] };
+        let target = FitTarget {
+            values: vec![0.5; 3].into_iter().chain(vec![1.0; 3]).collect(),
+            weights: vec![1.0, 0.0],
+            segment: vec![NO_SEGMENT; 2],
+            segments: 0,
+            white: false,
+        };
         // A light that lights the first pixel 1.0 and the second 3.0 per unit radiance: the radiance comes from
         // the recorded pixel alone (0.5), and the clipped one, rendered 1.5 >= 1, costs nothing.
         let bright = vec![1.0, 1.0, 1.0, 3.0, 3.0, 3.0];

@@ -43,7 +43,7 @@ impl Default for LightPlacementOptions {
 }
 
 /// The room's box (floor to ceiling, wall to wall) widened by 2 cm, when the scene has the room surfaces.
-fn room_box(scene: &Scene) -> Option<(Vec3, Vec3)> {
+pub(super) fn room_box(scene: &Scene) -> Option<(Vec3, Vec3)> {
     let at = |n: &str| scene.objects.iter().find(|o| o.name == n).map(|o| o.pose.translation);
     let lo = Vec3::new(at("wall_x0")?.x, at("floor")?.y, at("wall_z0")?.z);
     let hi = Vec3::new(at("wall_x1")?.x, at("ceiling")?.y, at("wall_z1")?.z);
@@ -84,11 +84,13 @@ pub struct LightPlacement {
     pub unit_renders: usize,
 }
 
-/// Moves and sizes every emitter of `scene` (see the module) and sets their radiances to the final fit.
+/// Moves and sizes every emitter of `scene` (see the module) and sets their radiances to the final fit; with
+/// `segments` (surface masks, may be empty) each surface's albedo is free in that fit (`light_fit`).
 pub fn refine_light_placement(
     backend: &mut dyn Backend,
     scene: &mut Scene,
     photo: &[f32],
+    segments: &[Vec<f32>],
     opts: &LightPlacementOptions,
 ) -> Result<LightPlacement> {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
@@ -108,7 +110,8 @@ pub fn refine_light_placement(
     let start: Vec<(Vec3, Vec3)> =
         lights.iter().map(|&i| (scene.objects[i].pose.translation, scene.objects[i].pose.scale)).collect();
     let ro = &opts.render;
-    let target = FitTarget::new(photo, w, h, ro.downsample);
+    let target =
+        FitTarget::new(photo, w, h, ro.downsample).with_segments(segments, w, h, ro.downsample).white_lights(ro.white);
     let norm = target.norm();
     let rel = |err: f64| (err / norm).sqrt() as f32;
     let all: Vec<usize> = (0..lights.len()).collect();
