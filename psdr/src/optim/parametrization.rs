@@ -198,11 +198,7 @@ impl ParamSpec {
         }
         for (each, side) in [(&self.lower_each, "min"), (&self.upper_each, "max")] {
             if !each.is_empty() && (each.len() != self.start.len() || !each.iter().all(|v| v.is_finite())) {
-                return bad(format!(
-                    "{side} has {} finite entries for {} components",
-                    each.len(),
-                    self.start.len()
-                ));
+                return bad(format!("{side} has {} finite entries for {} components", each.len(), self.start.len()));
             }
             if !each.is_empty() && self.space == Space::Range {
                 return bad(format!("a range parametrisation takes one {side}, not one per component"));

@@ -52,7 +52,8 @@ fn float(v: &Dynamic, key: &str) -> Result<f64> {
 
 /// One number per component: `min: [x0, y0, z0]`.
 fn floats(v: &Dynamic, key: &str) -> Result<Vec<f32>> {
-    let a = v.clone().try_cast::<Array>().ok_or_else(|| Error::Invalid(format!("optimize: '{key}' must be an array")))?;
+    let a =
+        v.clone().try_cast::<Array>().ok_or_else(|| Error::Invalid(format!("optimize: '{key}' must be an array")))?;
     a.iter().map(|x| float(x, key).map(|f| f as f32)).collect()
 }
 

@@ -336,9 +336,9 @@ fn light_position_errors(fitted: &Scene, truth: &Scene) -> Value {
     let mut worst: Option<f32> = None;
     let mut matched = vec![];
     for (name, centre, _) in &want {
-        let best = (0..fit.len()).filter(|&k| !used[k]).min_by(|&a, &b| {
-            (fit[a].1 - *centre).length().total_cmp(&(fit[b].1 - *centre).length())
-        });
+        let best = (0..fit.len())
+            .filter(|&k| !used[k])
+            .min_by(|&a, &b| (fit[a].1 - *centre).length().total_cmp(&(fit[b].1 - *centre).length()));
         let entry = match best {
             Some(k) => {
                 used[k] = true;
