@@ -98,12 +98,6 @@ impl FitTarget {
         FitTarget { values, weights, segment, segments: 0, white: false }
     }
 
-    /// The same target, told which surface each pixel shows (`masks`: one per surface, 1 where the photo
-    /// shows it, the photo's size): then each surface's albedo is a free factor per colour channel of the fit,
-    /// relative to the scene's material now, and the lights explain only how the light varies across each
-    /// surface, not its colour (with the scene's materials still grey, a dark floor would
-    /// otherwise pull lights away from it). The largest surface keeps its material's albedo (the factor 1),
-    /// which fixes the radiances' scale.
     /// The same target fitted by white lights: a light's colour and the colour of the surfaces it lights
     /// cannot be told apart while the surfaces' albedos are free, so a coloured light may take on the colour
     /// of the surface under it; white lights leave the colours to the material stage's fits.
@@ -112,6 +106,12 @@ impl FitTarget {
         self
     }
 
+    /// The same target, told which surface each pixel shows (`masks`: one per surface, 1 where the photo
+    /// shows it, the photo's size): then each surface's albedo is a free factor per colour channel of the fit,
+    /// relative to the scene's material now, and the lights explain only how the light varies across each
+    /// surface, not its colour (with the scene's materials still grey, a dark floor would
+    /// otherwise pull lights away from it). The largest surface keeps its material's albedo (the factor 1),
+    /// which fixes the radiances' scale.
     pub(crate) fn with_segments(mut self, masks: &[Vec<f32>], w: usize, h: usize, k: usize) -> FitTarget {
         let k = k.max(1);
         let mut best = vec![(0.0f32, NO_SEGMENT); self.weights.len()];
@@ -126,15 +126,10 @@ impl FitTarget {
         }
         self.segment = best.iter().map(|&(share, s)| if share >= SEGMENT_SHARE { s } else { NO_SEGMENT }).collect();
         self.segments = masks.len();
-        // The largest surface first: it keeps its albedo.
+        // The largest surface keeps its albedo: its pixels take no factor.
         let count = |s: u32| self.segment.iter().filter(|&&x| x == s).count();
         if let Some(largest) = (0..self.segments as u32).max_by_key(|&s| count(s)) {
-            self.segment.iter_mut().for_each(|x| {
-                *x = match *x {
-                    x if x == largest => NO_SEGMENT,
-                    x => x,
-                }
-            });
+            self.segment.iter_mut().filter(|x| **x == largest).for_each(|x| *x = NO_SEGMENT);
         }
         self
     }
