@@ -146,8 +146,14 @@ fn write_room(g: &Generated, db: &Path, dir: &Path, w: u32, h: u32) -> anyhow::R
     room.objects.push(panel("window".into(), (1.2, 1.1), window_at, Vec3::new(0.0, 90.0, 0.0), g.window.1));
     classes.push("window".into());
     let (mut truth, _, mut inst) = furnished_room(&room, &classes, &g.items, db);
-    // The photo: global illumination; the window is seen (furnished_room leaves emitters out of the instances).
-    truth.settings = psdr::scene::RenderSettings { spp: 64, max_depth: 4, rr_depth: 4, seed: 7 };
+    // The photo: global illumination with every bounce, as a camera records it; the window is seen
+    // (furnished_room leaves emitters out of the instances).
+    truth.settings = psdr::scene::RenderSettings {
+        spp: 64,
+        max_depth: psdr_tests::real_rooms::PHOTO_MAX_DEPTH,
+        rr_depth: 4,
+        seed: 7,
+    };
     let f = render_cpu(&SceneData::build(&truth)?, &truth.settings, &|_, _| {});
     let window = truth.object_index("window").unwrap() as u32;
     let window_id = inst.instances.iter().map(|i| i.id).max().unwrap_or(0) + 1;

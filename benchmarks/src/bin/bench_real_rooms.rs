@@ -24,7 +24,9 @@
 use psdr::backend::CpuBackend;
 use psdr::report::chart::{grid, Line, Point, Series, XyChart};
 use psdr::script::{run_script, RunOptions, ScriptRun};
-use psdr_tests::real_rooms::{generate_rooms, held_out_db, known_start, read_models, write_room, RealRoom};
+use psdr_tests::real_rooms::{
+    generate_rooms, held_out_db, known_start, read_models, write_room, RealRoom, PHOTO_MAX_DEPTH,
+};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -73,10 +75,13 @@ fn describe(r: &RealRoom) -> serde_json::Value {
     })
 }
 
-/// The rooms' folder: generated now unless every room of it was written before (its `rooms.json` last).
+/// The rooms' folder: generated now unless every room of it was written before (its `rooms.json` last) with
+/// the photos' present path length (folders from before it was recorded had 4-vertex paths).
 fn rooms(dir: &Path, db: &Path) -> anyhow::Result<()> {
     let index = dir.join("rooms.json");
-    if index.is_file() {
+    let written: Option<serde_json::Value> =
+        std::fs::read_to_string(&index).ok().and_then(|t| serde_json::from_str(&t).ok());
+    if written.is_some_and(|w| w["max_depth"] == PHOTO_MAX_DEPTH) {
         println!("reusing the rooms in {}", dir.display());
         return Ok(());
     }
@@ -112,8 +117,19 @@ fn rooms(dir: &Path, db: &Path) -> anyhow::Result<()> {
     let total = t.elapsed().as_secs_f64();
     println!("generated {} rooms in {total:.1} s", rooms.len());
     let text = serde_json::json!({ "seed": SEED, "width": WIDTH, "height": HEIGHT, "spp": PHOTO_SPP,
-                                   "seconds": total, "rooms": described });
+                                   "max_depth": PHOTO_MAX_DEPTH, "seconds": total, "rooms": described });
     std::fs::write(index, serde_json::to_string_pretty(&text)? + "\n")?;
+    Ok(())
+}
+
+/// The starts of the attribution modes beside a room's truth: `known_geometry.json` (the true room and furniture,
+/// grey, no lights) and `known_lights.json` (the same with the true emitters at unit radiance), for
+/// `psdr run scripts/room.rhai ROOM/photo.png --set geometry=ROOM/known_geometry.json` by hand as well.
+fn write_known_starts(room_dir: &Path) -> psdr::Result<()> {
+    let truth = psdr::scene::load_scene(&room_dir.join("truth.json"))?;
+    for (mode, lights) in [("known_geometry", false), ("known_lights", true)] {
+        psdr::scene::save_scene(&known_start(&truth, lights), &room_dir.join(format!("{mode}.json")))?;
+    }
     Ok(())
 }
 
@@ -195,13 +211,10 @@ fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) 
     let mut all_sets = sets.to_vec();
     all_sets.push(format!("truth={}", room_dir.join("truth.json").display()));
     if mode == "known_geometry" || mode == "known_lights" {
-        let start = room_dir.join(format!("{mode}.json"));
-        let made = psdr::scene::load_scene(&room_dir.join("truth.json"))
-            .and_then(|t| psdr::scene::save_scene(&known_start(&t, mode == "known_lights"), &start));
-        if let Err(e) = made {
+        if let Err(e) = write_known_starts(room_dir) {
             return crashed(format!("{mode} start: {e}"));
         }
-        all_sets.push(format!("geometry={}", start.display()));
+        all_sets.push(format!("geometry={}", room_dir.join(format!("{mode}.json")).display()));
     }
     // A panic inside psdr is a crash of this pair, not of the benchmark.
     let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -374,6 +387,9 @@ fn main() -> anyhow::Result<()> {
         return Ok(());
     }
     if std::env::var_os("BENCH_REAL_ROOMS_GENERATE_ONLY").is_some() {
+        for k in 0..ROOMS {
+            write_known_starts(&dir.join(format!("room{k:02}")))?;
+        }
         return Ok(());
     }
     let only = std::env::var("BENCH_REAL_ROOMS_ONLY").ok();
