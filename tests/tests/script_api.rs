@@ -53,7 +53,7 @@ fn every_documented_function_is_exercised_and_every_registered_one_documented() 
         let called = tour.contains(&format!("{name}(")) || tour.contains(&format!(".{name}"));
         assert!(called, "documented function '{name}' is not exercised by api_tour.rhai");
     }
-    // Registered functions (getters appear as get$name), operators excluded.
+    // Registered functions (getters appear as get$name, setters as set$name), operators excluded.
     let out = temp_dir("api-registered");
     let ctx = std::rc::Rc::new(std::cell::RefCell::new(RunContext::new(
         out,
@@ -64,7 +64,8 @@ fn every_documented_function_is_exercised_and_every_registered_one_documented() 
     let engine = build_engine(&ctx);
     let mut registered = BTreeSet::new();
     for sig in engine.gen_fn_signatures(false) {
-        let name = sig.split('(').next().unwrap_or("").trim_start_matches("get$").to_string();
+        let name = sig.split('(').next().unwrap_or("");
+        let name = name.strip_prefix("get$").or_else(|| name.strip_prefix("set$")).unwrap_or(name).to_string();
         if name.chars().next().is_some_and(|c| c.is_ascii_alphabetic()) && name != "to_string" {
             registered.insert(name);
         }

@@ -69,7 +69,7 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
         match k.as_str() {
             "downsample" => o.downsample = n.max(1.0) as usize,
             "spp" => o.spp = n.max(1.0) as u32,
-            "max_depth" => o.max_depth = n.max(1.0) as u32,
+            "max_depth" => o.max_depth = Some(n.max(1.0) as u32),
             "removal_threshold" => o.removal_threshold = n as f32,
             "seed" => o.seed = n.max(0.0) as u32,
             other => {

@@ -150,6 +150,14 @@ fn render(run: &RunRef, scene: &Scene, opts: &rhai::Map) -> Result<Rendered> {
     Ok(Rendered::constant(frame, scene.objects.iter().map(|o| o.name.clone()).collect()))
 }
 
+/// A path length in vertices from a script: at least 1.
+fn path_vertices(what: &str, n: i64) -> Rr<u32> {
+    u32::try_from(n)
+        .ok()
+        .filter(|&v| v >= 1)
+        .ok_or_else(|| rhai_err(Error::Invalid(format!("{what} = {n}: a path has at least 1 vertex"))))
+}
+
 pub fn register(engine: &mut Engine, run: &RunRef) {
     engine.register_type_with_name::<SceneHandle>("Scene");
     engine.register_type_with_name::<RenderHandle>("Render");
@@ -185,6 +193,19 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
     });
     engine.register_get("width", |s: &mut SceneHandle| s.0.camera.width as i64);
     engine.register_get("height", |s: &mut SceneHandle| s.0.camera.height as i64);
+    // The path length every render of the scene uses unless told otherwise (vertices: 1 = emitters seen
+    // directly, 2 = direct light, 3 = one bounce more...) and the vertex from which Russian roulette may end a
+    // path: the fits must model as many bounces as the photo records.
+    engine.register_get("max_depth", |s: &mut SceneHandle| s.0.settings.max_depth as i64);
+    engine.register_set("max_depth", |s: &mut SceneHandle, n: i64| -> Rr<()> {
+        s.0.settings.max_depth = path_vertices("max_depth", n)?;
+        Ok(())
+    });
+    engine.register_get("rr_depth", |s: &mut SceneHandle| s.0.settings.rr_depth as i64);
+    engine.register_set("rr_depth", |s: &mut SceneHandle, n: i64| -> Rr<()> {
+        s.0.settings.rr_depth = path_vertices("rr_depth", n)?;
+        Ok(())
+    });
     engine.register_fn("set_resolution", |s: &mut SceneHandle, w: i64, h: i64| -> Rr<()> {
         if !(1..=u32::MAX as i64).contains(&w) || !(1..=u32::MAX as i64).contains(&h) {
             return Err(rhai_err(Error::Invalid(format!("set_resolution: {w}x{h} is not a usable image size"))));

@@ -18,8 +18,9 @@ pub struct LightFitOptions {
     pub downsample: usize,
     /// Samples per pixel of each basis render.
     pub spp: u32,
-    /// Path length of the basis renders (global illumination).
-    pub max_depth: u32,
+    /// Path length of the basis renders (global illumination); None: the scene's, so that the lights are fitted
+    /// under the interreflections the rest of the fit renders.
+    pub max_depth: Option<u32>,
     /// A light is removed when that raises the fit's relative RMS error by less than this (0 keeps all).
     pub removal_threshold: f32,
     pub seed: u32,
@@ -29,7 +30,7 @@ pub struct LightFitOptions {
 
 impl Default for LightFitOptions {
     fn default() -> Self {
-        LightFitOptions { downsample: 8, spp: 64, max_depth: 3, removal_threshold: 0.01, seed: 0, white: false }
+        LightFitOptions { downsample: 8, spp: 64, max_depth: None, removal_threshold: 0.01, seed: 0, white: false }
     }
 }
 
@@ -73,6 +74,9 @@ pub(crate) struct FitTarget {
     pub segments: usize,
     /// One radiance per light for the three channels (`white_lights`).
     pub white: bool,
+    /// The surface with the most pixels (NO_SEGMENT without segments): it fixes the gauge the free albedos
+    /// leave open (`with_segments`).
+    pub largest: u32,
 }
 
 pub(crate) const NO_SEGMENT: u32 = u32::MAX;
@@ -95,7 +99,7 @@ impl FitTarget {
             weights.iter_mut().for_each(|w| *w = 1.0);
         }
         let segment = vec![NO_SEGMENT; weights.len()];
-        FitTarget { values, weights, segment, segments: 0, white: false }
+        FitTarget { values, weights, segment, segments: 0, white: false, largest: NO_SEGMENT }
     }
 
     /// The same target fitted by white lights: a light's colour and the colour of the surfaces it lights
@@ -110,8 +114,11 @@ impl FitTarget {
     /// shows it, the photo's size): then each surface's albedo is a free factor per colour channel of the fit,
     /// relative to the scene's material now, and the lights explain only how the light varies across each
     /// surface, not its colour (with the scene's materials still grey, a dark floor would
-    /// otherwise pull lights away from it). The largest surface keeps its material's albedo (the factor 1),
-    /// which fixes the radiances' scale.
+    /// otherwise pull lights away from it). What the photo cannot tell, a common factor of the lights against
+    /// one of the albedos, is fixed on the largest surface: with coloured lights it keeps its material's
+    /// albedo (the factor 1 per channel), which fixes the radiances' scale and colour; with white lights
+    /// (`white_lights`) only its factors' mean over the channels is 1, so its colour comes from the photo (a
+    /// grey start on an orange floor would otherwise make every light orange).
     pub(crate) fn with_segments(mut self, masks: &[Vec<f32>], w: usize, h: usize, k: usize) -> FitTarget {
         let k = k.max(1);
         let mut best = vec![(0.0f32, NO_SEGMENT); self.weights.len()];
@@ -126,11 +133,8 @@ impl FitTarget {
         }
         self.segment = best.iter().map(|&(share, s)| if share >= SEGMENT_SHARE { s } else { NO_SEGMENT }).collect();
         self.segments = masks.len();
-        // The largest surface keeps its albedo: its pixels take no factor.
         let count = |s: u32| self.segment.iter().filter(|&&x| x == s).count();
-        if let Some(largest) = (0..self.segments as u32).max_by_key(|&s| count(s)) {
-            self.segment.iter_mut().filter(|x| **x == largest).for_each(|x| *x = NO_SEGMENT);
-        }
+        self.largest = (0..self.segments as u32).max_by_key(|&s| count(s)).unwrap_or(NO_SEGMENT);
         self
     }
 
@@ -227,7 +231,10 @@ pub(crate) fn lit_by(scene: &Scene, light: usize, opts: &LightFitOptions) -> Sce
             e.radiance = if oi == light { Vec3::ONE } else { Vec3::ZERO };
         }
     }
-    (s.settings.spp, s.settings.max_depth, s.settings.seed) = (opts.spp, opts.max_depth, opts.seed);
+    (s.settings.spp, s.settings.seed) = (opts.spp, opts.seed);
+    if let Some(d) = opts.max_depth {
+        s.settings.max_depth = d;
+    }
     s
 }
 
@@ -294,11 +301,16 @@ pub(crate) fn nnls_fit(basis: &[Vec<f32>], target: &FitTarget, active: &[usize])
                 }
             }
             for c in g.iter().copied() {
-                for s in 0..target.segments {
+                for s in (0..target.segments).filter(|&s| target.white || s as u32 != target.largest) {
                     if den[c][s] > 1e-30 {
                         albedo[c][s] = (num[c][s] / den[c][s]).clamp(0.02, 50.0);
                     }
                 }
+            }
+            if target.white && target.largest != NO_SEGMENT {
+                let l = target.largest as usize;
+                let m = (albedo[0][l] + albedo[1][l] + albedo[2][l]) / 3.0;
+                albedo.iter_mut().flatten().for_each(|a| *a /= m);
             }
             x = nnls(&scaled(&albedo), &b);
         }
@@ -431,6 +443,37 @@ mod tests {
         assert!(err > 1e-3 || rad[1][0] > 1e-3, "the scene's albedos must need B or leave an error: {rad:?} {err}");
     }
 
+    /// One light, two surfaces of grey material: in the photo the larger is orange and the smaller blue
+    /// under a white light. With coloured lights the larger surface keeps its grey and the light turns orange;
+    /// with white lights the light stays white and each surface takes its colour, the larger keeping only its
+    /// brightness (its factors' mean 1).
+    #[test]
+    fn white_lights_leave_the_largest_surface_its_colour() {
+        let (w, h, k) = (32, 8, 8);
+        let unit = [1.0f32, 0.8, 0.6, 0.4];
+        let orange = [1.4f32, 1.0, 0.6];
+        let blue = [0.5f32, 0.7, 1.2];
+        let colour = |p: usize| if (p % w) / k < 3 { orange } else { blue };
+        let photo: Vec<f32> =
+            (0..w * h).flat_map(|p| (0..3).map(move |c| 0.3 * unit[(p % w) / k] * colour(p)[c])).collect();
+        let basis = downsample(&(0..w * h).flat_map(|p| [unit[(p % w) / k]; 3]).collect::<Vec<_>>(), w, h, k).0;
+        let masks: Vec<Vec<f32>> = [[1.0f32, 1.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+            .iter()
+            .map(|m| (0..w * h).map(|p| m[(p % w) / k]).collect())
+            .collect();
+        let target = || FitTarget::new(&photo, w, h, k).with_segments(&masks, w, h, k);
+        let (coloured, err) = nnls_fit(std::slice::from_ref(&basis), &target(), &[0]);
+        assert!(err < 1e-6, "{err}");
+        let c = coloured[0];
+        assert!((c[0] / c[2] - orange[0] / orange[2]).abs() < 1e-3, "the light takes the surface's colour: {c:?}");
+        let (white, err) = nnls_fit(&[basis], &target().white_lights(true), &[0]);
+        assert!(err < 1e-6, "{err}");
+        let l = white[0];
+        assert!(l[0] == l[1] && l[1] == l[2], "{l:?}");
+        // The larger surface's mean factor is 1: the light is 0.3 times the orange's channel mean.
+        assert!((l[0] - 0.3 * (orange[0] + orange[1] + orange[2]) / 3.0).abs() < 1e-4, "{l:?}");
+    }
+
     #[test]
     fn clipped_pixels_bound_the_fit_from_below_only() {
         // Two reduced pixels, grey: the first records the scene (0.5), the second is clipped (reads 1.0).
@@ -440,6 +483,7 @@ mod tests {
             segment: vec![NO_SEGMENT; 2],
             segments: 0,
             white: false,
+            largest: NO_SEGMENT,
         };
         // A light that lights the first pixel 1.0 and the second 3.0 per unit radiance: the radiance comes from
         // the recorded pixel alone (0.5), and the clipped one, rendered 1.5 >= 1, costs nothing.
