@@ -66,12 +66,14 @@ fn the_division_converges_where_light_bounces_many_times() {
     }
     start.settings = RenderSettings { spp: 16, max_depth: 16, rr_depth: 3, seed: 1 };
     let mut errors = vec![worst_error(&start, &truth, &segments)];
-    let mut scene = start.clone();
-    for rounds in 1..=5 {
-        scene = start.clone();
+    let divided = |rounds: usize| {
+        let mut scene = start.clone();
         divide_albedos(&mut CpuBackend, &mut scene, &photo, &segments, rounds, 64).unwrap();
-        errors.push(worst_error(&scene, &truth, &segments));
-    }
+        scene
+    };
+    errors.extend((1..5).map(|rounds| worst_error(&divided(rounds), &truth, &segments)));
+    let scene = divided(5);
+    errors.push(worst_error(&scene, &truth, &segments));
     println!("worst albedo error per round: {errors:?}");
     for s in &segments {
         let m = &scene.materials[s.material];

@@ -44,7 +44,7 @@ fn known_geometry_wrong_materials_and_lights_converge_to_the_photo() {
     }
 }
 
-/// A light scale searched over a range that stops short of the photo's (the test room above wants 1.1-1.6)
+/// A light scale searched over a range that stops short of the photo's (the test room above wants 1.1-1.3 on its photo with every bounce)
 /// ends at the range's end, and the report says the lights and albedos were not told apart there.
 #[test]
 fn a_light_scale_at_the_range_end_is_reported() {

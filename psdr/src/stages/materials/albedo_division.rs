@@ -136,7 +136,8 @@ const MAX_RATE: f32 = 10.0;
 impl DivisionSteps {
     fn new(weights: Vec<f32>, bounced: Vec<Vec3>) -> DivisionSteps {
         let mut d = DivisionSteps { weights, bounced, rate: Vec3::ONE, last: None };
-        d.rate = (Vec3::ONE / (Vec3::ONE - d.mean(&|j| d.bounced[j]))).clamp(Vec3::ONE, Vec3::splat(MAX_RATE));
+        let b = d.mean(&|j| d.bounced[j]);
+        d.rate = (Vec3::ONE / (Vec3::ONE - b)).clamp(Vec3::ONE, Vec3::splat(MAX_RATE));
         d
     }
 
