@@ -17,6 +17,9 @@ fn fit_scene(width: u32, height: u32) -> Scene {
     let mut s = load_scene(path).unwrap();
     s.camera.width = width;
     s.camera.height = height;
+    // These tests check the optimiser, not light transport: their targets are rendered with the scene's own
+    // settings, so 3-vertex paths (one bounce) keep them fast and their noise low.
+    s.settings.max_depth = 3;
     s
 }
 
