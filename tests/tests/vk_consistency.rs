@@ -224,7 +224,15 @@ fn light_scale_search_on_the_device_matches_the_cpu() {
     for s in &segments {
         start.materials[s.material].albedo = Color::Constant(glam::Vec3::splat(0.5));
     }
-    let opts = LightScaleOptions { range: (0.5, 2.0), steps: 5, rounds: 2, spp: 8, downsample: 4, per_channel: true };
+    let opts = LightScaleOptions {
+        range: (0.5, 2.0),
+        steps: 5,
+        rounds: 2,
+        spp: 8,
+        downsample: 4,
+        per_channel: true,
+        extend: 0,
+    };
     let (mut on_cpu, mut on_vk) = (start.clone(), start);
     let a = search_light_scale(&mut CpuBackend, &mut on_cpu, &photo.radiance, &segments, &opts).unwrap();
     let b = search_light_scale(&mut vk, &mut on_vk, &photo.radiance, &segments, &opts).unwrap();

@@ -80,13 +80,14 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             "rounds" => o.rounds = option_number(what, k, v)?.max(0.0) as usize,
             "spp" => o.spp = option_number(what, k, v)?.max(1.0) as u32,
             "downsample" => o.downsample = option_number(what, k, v)?.max(1.0) as usize,
+            "extend" => o.extend = option_number(what, k, v)?.max(0.0) as usize,
             "per_channel" => {
                 o.per_channel =
                     v.as_bool().map_err(|_| Error::Invalid(format!("{what}: 'per_channel' is true or false")))?
             }
             other => {
                 return Err(Error::Invalid(format!(
-                    "{what}: unknown option '{other}' (range, steps, rounds, spp, downsample, per_channel)"
+                    "{what}: unknown option '{other}' (range, steps, rounds, spp, downsample, per_channel, extend)"
                 )))
             }
         }
@@ -98,7 +99,9 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
     c.recorded.insert("light_scale".into(), v.clone());
     // A scale at the range's end is where the search stopped, not a minimum: the photo did not separate the
     // lights' brightness from the albedos there, and the report says so.
-    let (lo, hi) = o.range;
+    // (The searched range: `range`, and the steps past its ends where `extend` took the search.)
+    let lo = found.factors.iter().copied().fold(o.range.0, f32::min);
+    let hi = found.factors.iter().copied().fold(o.range.1, f32::max);
     let edge: Vec<&str> = ["R", "G", "B"]
         .into_iter()
         .zip(found.chosen)
@@ -107,7 +110,7 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
         .collect();
     if !edge.is_empty() && !found.factors.is_empty() {
         c.report.notes.push(format!(
-            "light_scale_search: the scale of {} ended at the searched range's end ({lo}..{hi}); the photo did not \
+            "light_scale_search: the scale of {} ended at the searched range's end ({lo:.2}..{hi:.2}); the photo did not \
              tell the lights' brightness from the albedos there, so both may be off by that factor",
             edge.join(", ")
         ));

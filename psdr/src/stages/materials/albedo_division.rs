@@ -8,7 +8,8 @@
 //! `search_light_scale`: scaling every light by s and dividing the albedos anew reproduces each segment's mean
 //! colour for any s; only interreflections tell s apart (light bounced off a surface carries its albedo once
 //! more), and they do so per colour channel. The scale is searched on a log grid over a range, each point
-//! with the albedos divided anew, scored by the L1 distance to the photo at 1/downsample size per channel; per
+//! with the albedos divided anew, scored by the squared distance to the photo at 1/downsample size per channel
+//! (estimated from two renders so that their noise does not score; `squared_error_unbiased`); per
 //! channel the best grid point, refined by a parabola through its neighbours. Albedos are clamped to
 //! 0.01..0.95, so a scale that would need brighter surfaces shows up as a worse fit, not a wrong albedo.
 //! Both leave out the pixels where the photo is clipped (`vision::unclipped`), and render on the run's backend
@@ -222,11 +223,21 @@ pub struct LightScaleOptions {
     /// A factor per colour channel (white balance absorbed into the lights' colour), or one for all three
     /// (the lights keep their fitted colour; the albedos take the rest).
     pub per_channel: bool,
+    /// Grid steps tried past either end of `range` while a channel's best factor is at that end.
+    pub extend: usize,
 }
 
 impl Default for LightScaleOptions {
     fn default() -> Self {
-        LightScaleOptions { range: (0.5, 2.0), steps: 9, rounds: 3, spp: 32, downsample: 8, per_channel: true }
+        LightScaleOptions {
+            range: (0.5, 2.0),
+            steps: 9,
+            rounds: 3,
+            spp: 32,
+            downsample: 8,
+            per_channel: true,
+            extend: 0,
+        }
     }
 }
 
@@ -234,36 +245,111 @@ impl Default for LightScaleOptions {
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct LightScale {
     pub factors: Vec<f32>,
-    /// Per factor, the L1 distance to the photo at 1/downsample size per channel (mean over cells).
+    /// Per factor, the squared distance to the photo at 1/downsample size per channel (mean over cells, an
+    /// unbiased estimate of the noise-free render's: `squared_error_unbiased`; it can fall below 0).
     pub errors: Vec<[f64; 3]>,
+    /// Per factor, those estimates' standard errors.
+    pub standard_errors: Vec<[f64; 3]>,
     /// Per channel, the factor applied to every light's radiance.
     pub chosen: [f32; 3],
 }
 
-/// Mean |a - b| per channel after k x k box downsampling.
-fn l1_downsampled(a: &[f32], b: &[f32], w: usize, h: usize, k: usize) -> [f64; 3] {
+/// The squared distance between a render and the photo after k x k box downsampling, per channel, from two
+/// independent renders `a` and `b` of the same scene: the mean of (a - p)(b - p) over the cells, whose
+/// expectation is the squared error of the noise-free render. The noise of one render would add its variance
+/// to any score of it (L1 or L2), and that variance is not the same at every factor: brighter lights over
+/// darker albedos shift light from the bounced paths (noisy) to direct light (less so), so a one-render score
+/// favoured bright lights (the shipped example's red at 32 spp: 1.55, at 128 spp 1.39). Also returns the
+/// estimate's standard error per channel (of the mean over cells).
+fn squared_error_unbiased(a: &[f32], b: &[f32], photo: &[f32], w: usize, h: usize, k: usize) -> ([f64; 3], [f64; 3]) {
     let (sw, sh) = ((w / k).max(1), (h / k).max(1));
-    let mut e = [0.0f64; 3];
+    let cells = (sw * sh) as f64;
+    let (mut e, mut e2) = ([0.0f64; 3], [0.0f64; 3]);
     for y in 0..sh {
         for x in 0..sw {
-            let mut d = [0.0f64; 3];
+            let (mut da, mut db) = ([0.0f64; 3], [0.0f64; 3]);
             let mut n = 0.0f64;
             for yy in y * k..((y + 1) * k).min(h) {
                 for xx in x * k..((x + 1) * k).min(w) {
                     let p = 3 * (yy * w + xx);
-                    (0..3).for_each(|c| d[c] += (a[p + c] - b[p + c]) as f64);
+                    for c in 0..3 {
+                        da[c] += (a[p + c] - photo[p + c]) as f64;
+                        db[c] += (b[p + c] - photo[p + c]) as f64;
+                    }
                     n += 1.0;
                 }
             }
-            (0..3).for_each(|c| e[c] += (d[c] / n).abs() / (sw * sh) as f64);
+            for c in 0..3 {
+                let product = da[c] * db[c] / (n * n);
+                e[c] += product / cells;
+                e2[c] += product * product / cells;
+            }
         }
     }
-    e
+    let se = std::array::from_fn(|c| ((e2[c] - e[c] * e[c]).max(0.0) / cells).sqrt());
+    (e, se)
+}
+
+/// One point of the search: the lights at `factor` times their radiance, the albedos divided anew there.
+struct ScalePoint {
+    factor: f32,
+    errors: [f64; 3],
+    standard_errors: [f64; 3],
+    albedos: Vec<Vec3>,
+}
+
+/// What scoring a factor needs besides the scene: the lights (object index, radiance before the search) and
+/// the photo where it records the scene (clipped pixels zero, `recorded_rgb` the mask per value).
+struct ScaleScoring<'a> {
+    lights: Vec<(usize, Vec3)>,
+    photo: &'a [f32],
+    recorded_rgb: Vec<f32>,
+    recorded_photo: Vec<f32>,
+}
+
+impl ScaleScoring<'_> {
+    fn set(&self, scene: &mut Scene, f: Vec3) {
+        for &(i, b) in &self.lights {
+            scene.objects[i].emitter.as_mut().unwrap().radiance = b * f;
+        }
+    }
+
+    /// The lights at `f`, the albedos (started where the caller left them) divided anew, and the score.
+    fn score(
+        &self,
+        backend: &mut dyn Backend,
+        scene: &mut Scene,
+        segments: &[Segment],
+        opts: &LightScaleOptions,
+        f: f32,
+    ) -> Result<ScalePoint> {
+        self.set(scene, Vec3::splat(f));
+        divide_albedos(backend, scene, self.photo, segments, opts.rounds, opts.spp)?;
+        let albedos = albedos(scene, segments);
+        // Two renders of half the samples each, with their own seeds (the score's noise cancels between them).
+        let half = (opts.spp / 2).max(1);
+        let seed = scene.settings.seed;
+        let [a, b] = [seed, seed.wrapping_add(0x9e37_79b9)].map(|s| render(backend, scene, half, s));
+        // As the camera records them (clamped at its white where the photo is 8-bit): an emitter the render
+        // shows where the photo does not (a window drawn a few rows taller than the photo's) would otherwise
+        // score its radiance, which grows with the factor (room01's scale went to the range's low end).
+        let recorded = |img: Vec<f32>| -> Vec<f32> {
+            let img = crate::vision::clip_like_photo(&img, self.photo);
+            img.iter().zip(&self.recorded_rgb).map(|(v, u)| v * u).collect()
+        };
+        let (a, b) = (recorded(a?), recorded(b?));
+        let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+        let (errors, standard_errors) =
+            squared_error_unbiased(&a, &b, &self.recorded_photo, w, h, opts.downsample.max(1));
+        Ok(ScalePoint { factor: f, errors, standard_errors, albedos })
+    }
 }
 
 /// Searches the lights' common scale per channel (see the module), leaves the scene at the chosen one with
 /// its albedos divided, and returns what it tried. (Searched at 1/downsample of the camera's size, the same
 /// spp per pixel, the noise flattened the error curve and the scale came out 25 % off; it runs at full size.)
+/// Where a channel's best factor is at an end of the grid, the grid goes on past that end, a step at a time
+/// while it stays the best, up to `extend` steps (`LightScaleOptions::extend`).
 pub fn search_light_scale(
     backend: &mut dyn Backend,
     scene: &mut Scene,
@@ -279,16 +365,16 @@ pub fn search_light_scale(
             opts.steps
         )));
     }
-    let lights: Vec<usize> = (0..scene.objects.len()).filter(|&i| scene.objects[i].emitter.is_some()).collect();
-    let base: Vec<Vec3> = lights.iter().map(|&i| scene.objects[i].emitter.unwrap().radiance).collect();
-    let set = |scene: &mut Scene, f: Vec3| {
-        for (&i, b) in lights.iter().zip(&base) {
-            scene.objects[i].emitter.as_mut().unwrap().radiance = *b * f;
-        }
+    let w = scene.camera.width as usize;
+    let recorded_rgb: Vec<f32> = crate::vision::unclipped(photo, w).iter().flat_map(|&u| [u; 3]).collect();
+    let scoring = ScaleScoring {
+        lights: (0..scene.objects.len()).filter_map(|i| scene.objects[i].emitter.map(|e| (i, e.radiance))).collect(),
+        photo,
+        recorded_photo: photo.iter().zip(&recorded_rgb).map(|(v, u)| v * u).collect(),
+        recorded_rgb,
     };
-    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    let mut out = LightScale { factors: vec![], errors: vec![], chosen: [1.0; 3] };
-    if lights.is_empty() {
+    let mut out = LightScale { factors: vec![], errors: vec![], standard_errors: vec![], chosen: [1.0; 3] };
+    if scoring.lights.is_empty() {
         return Ok(out);
     }
     let progress = crate::progress::activity("the lights' common scale, per factor", Some(opts.steps));
@@ -296,27 +382,46 @@ pub fn search_light_scale(
     // (exact without interreflections), so one round lands near the converged albedos. Started from the
     // previous albedos unchanged, one round left them a factor step off and the chosen scale 15 % off.
     // Scored where the photo records the scene: clipped pixels are zero in both images.
-    let recorded_rgb: Vec<f32> = crate::vision::unclipped(photo, w).iter().flat_map(|&u| [u; 3]).collect();
-    let recorded_photo: Vec<f32> = photo.iter().zip(&recorded_rgb).map(|(v, u)| v * u).collect();
-    let mut at_factor: Vec<Vec<Vec3>> = vec![];
+    let ratio = (hi / lo).powf(1.0 / (opts.steps - 1) as f32);
+    let mut points: Vec<ScalePoint> = vec![];
     let mut previous = Vec3::ONE;
     for step in 0..opts.steps {
         progress.set(step, None);
-        let f = lo * (hi / lo).powf(step as f32 / (opts.steps - 1) as f32);
-        set(scene, Vec3::splat(f));
+        let f = lo * ratio.powi(step as i32);
         rescale_albedos(scene, segments, previous / f);
         previous = Vec3::splat(f);
-        divide_albedos(backend, scene, photo, segments, opts.rounds, opts.spp)?;
-        at_factor.push(albedos(scene, segments));
-        let img = render(backend, scene, opts.spp, scene.settings.seed)?;
-        out.factors.push(f);
-        let img: Vec<f32> = img.iter().zip(&recorded_rgb).map(|(v, u)| v * u).collect();
-        out.errors.push(l1_downsampled(&img, &recorded_photo, w, h, opts.downsample.max(1)));
+        points.push(scoring.score(backend, scene, segments, opts, f)?);
     }
+    // Past an end while a channel's best is there, each new point started from the end's albedos.
+    let best = |points: &[ScalePoint], c: usize| -> usize {
+        let e = |i: usize| if opts.per_channel { points[i].errors[c] } else { points[i].errors.iter().sum() };
+        (0..points.len()).min_by(|&a, &b| e(a).total_cmp(&e(b))).unwrap_or(0)
+    };
+    for high in [true, false] {
+        for _ in 0..opts.extend {
+            let end = if high { points.len() - 1 } else { 0 };
+            if !(0..3).any(|c| best(&points, c) == end) {
+                break;
+            }
+            let f = if high { points[end].factor * ratio } else { points[end].factor / ratio };
+            set_albedos(scene, segments, &points[end].albedos);
+            rescale_albedos(scene, segments, Vec3::splat(points[end].factor / f));
+            let p = scoring.score(backend, scene, segments, opts, f)?;
+            if high {
+                points.push(p);
+            } else {
+                points.insert(0, p);
+            }
+        }
+    }
+    drop(progress);
+    out.factors = points.iter().map(|p| p.factor).collect();
+    out.errors = points.iter().map(|p| p.errors).collect();
+    out.standard_errors = points.iter().map(|p| p.standard_errors).collect();
     for c in 0..3 {
         // One channel's error, or the three's sum when the factor is common.
         let e = |i: usize| if opts.per_channel { out.errors[i][c] } else { out.errors[i].iter().sum() };
-        let i = (0..out.factors.len()).min_by(|&a, &b| e(a).total_cmp(&e(b))).unwrap_or(0);
+        let i = best(&points, c);
         let mut x = out.factors[i].ln();
         if i > 0 && i + 1 < out.factors.len() {
             let curve = e(i - 1) - 2.0 * e(i) + e(i + 1);
@@ -336,13 +441,22 @@ pub fn search_light_scale(
     let near: [usize; 3] = std::array::from_fn(nearest);
     for (j, s) in segments.iter().enumerate() {
         if let Color::Constant(a) = &mut scene.materials[s.material].albedo {
-            let start = std::array::from_fn(|c| at_factor[near[c]][j][c] * out.factors[near[c]] / out.chosen[c]);
+            let start = std::array::from_fn(|c| points[near[c]].albedos[j][c] * out.factors[near[c]] / out.chosen[c]);
             *a = Vec3::from_array(start).clamp(Vec3::splat(ALBEDO_RANGE.0), Vec3::splat(ALBEDO_RANGE.1));
         }
     }
-    set(scene, chosen);
+    scoring.set(scene, chosen);
     divide_albedos(backend, scene, photo, segments, opts.rounds, opts.spp)?;
     Ok(out)
+}
+
+/// Sets the segments' albedos (constant ones) to `values`, in segment order.
+fn set_albedos(scene: &mut Scene, segments: &[Segment], values: &[Vec3]) {
+    for (s, v) in segments.iter().zip(values) {
+        if let Color::Constant(a) = &mut scene.materials[s.material].albedo {
+            *a = *v;
+        }
+    }
 }
 
 fn albedos(scene: &Scene, segments: &[Segment]) -> Vec<Vec3> {
@@ -358,6 +472,45 @@ fn rescale_albedos(scene: &mut Scene, segments: &[Segment], by: Vec3) {
     for s in segments {
         if let Color::Constant(a) = &mut scene.materials[s.material].albedo {
             *a = (*a * by).clamp(Vec3::splat(ALBEDO_RANGE.0), Vec3::splat(ALBEDO_RANGE.1));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two renders with independent noise of the same noise-free image: their product score is that image's
+    /// squared error (the noise averages out), where the squared error of one render carries the noise's
+    /// variance. 64x64 cells of 4 pixels, noise of standard deviation 0.3 against an error of 0.1: a cell's
+    /// product has standard deviation sqrt(0.0225^2 + 2 * 0.01 * 0.0225) = 0.031 (0.0225 the variance of a
+    /// 4-pixel mean), the mean over 4096 cells 5e-4, so 0.01 +- 0.003 is a 6-sigma bound.
+    #[test]
+    fn the_two_render_score_does_not_count_the_noise() {
+        let (w, h) = (128, 128);
+        let photo = vec![0.5f32; w * h * 3];
+        let clean: Vec<f32> = photo.iter().map(|p| p + 0.1).collect();
+        let mut state = 1u64;
+        let mut noisy = || -> Vec<f32> {
+            clean
+                .iter()
+                .map(|v| {
+                    // Uniform noise of standard deviation 0.3 (half-width 0.3 * sqrt 3).
+                    state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    let u = (state >> 40) as f32 / (1u64 << 24) as f32;
+                    v + (2.0 * u - 1.0) * 0.3 * 3f32.sqrt()
+                })
+                .collect()
+        };
+        let (a, b) = (noisy(), noisy());
+        let (both, se) = squared_error_unbiased(&a, &b, &photo, w, h, 2);
+        let (one, _) = squared_error_unbiased(&a, &a, &photo, w, h, 2);
+        for c in 0..3 {
+            assert!((both[c] - 0.01).abs() < 0.003, "two renders: {} for 0.01", both[c]);
+            // Its standard error as the comment above computes it (5e-4).
+            assert!((se[c] - 4.8e-4).abs() < 1e-4, "standard error {}", se[c]);
+            // One render's score: 0.01 + 0.09 / 4 (the variance of a 4-pixel mean).
+            assert!(one[c] > 0.025, "one render: {}", one[c]);
         }
     }
 }
