@@ -55,6 +55,7 @@ fn a_light_scale_at_the_range_end_is_reported() {
         "light_scale_low=0.5",
         "light_scale_high=0.8",
         "light_scale_steps=3",
+        "light_scale_extend=0",
         "light_scale_rounds=1",
         "material_iters=0",
     ];
@@ -62,7 +63,7 @@ fn a_light_scale_at_the_range_end_is_reported() {
     let chosen = result["recorded"]["light_scale"]["chosen"].as_array().unwrap().clone();
     assert!(chosen.iter().any(|c| c.as_f64().unwrap() > 0.799), "{chosen:?}");
     let html = std::fs::read_to_string(dir.join("out/report.html")).unwrap();
-    assert!(html.contains("ended at the searched range&#39;s end (0.5..0.8)"), "no note on the range's end");
+    assert!(html.contains("ended at the searched range&#39;s end (0.50..0.80)"), "no note on the range's end");
 }
 
 /// The same room with its lights left out of the given geometry: the light stage must find them (candidates on

@@ -3,9 +3,9 @@
 //! photo's cabinet comes from and its ground truth), at reduced iterations: every output exists and loads
 //! (scene.json renders, the Mitsuba export is XML naming every file it writes, scene.glb passes Khronos'
 //! validator), and result.json's `evaluation` against the truth is within stated bounds (measured at these
-//! settings, 18 s on 2 cores: room within 0.04 % where seen, the cabinet 0.07 % of its distance / 0.8 degrees /
-//! 0.07 % in height with the true model, image RMSE at 1/8 size 4.5 % of the mean, SSIM 0.93, albedos within
-//! 21 %, the cabinet's body and plinth fitted apart).
+//! settings on the photo with every bounce, 18 s on 2 cores: room within 0.04 % where seen, the cabinet 0.07 %
+//! of its distance / 0.8 degrees / 0.07 % in height with the true model, image RMSE at 1/8 size 2.4 % of the
+//! mean, SSIM 0.79, albedos within 15.5 %, the cabinet's body and plinth fitted apart).
 
 use psdr::backend::CpuBackend;
 use psdr::render::{render_cpu, SceneData};
@@ -31,10 +31,6 @@ fn the_example_photo_becomes_a_scene_close_to_its_truth() {
                 "object_iters=30".into(),
                 "material_iters=15".into(),
                 "light_spp=32".into(),
-                // The shipped photo was rendered with 3-vertex paths (examples/fit/truth.json), where a camera
-                // records every bounce; fitted with room.rhai's 16 the albedos come out 30-43 % dark. Until the
-                // example is rendered again with every bounce, the fit models the photo's own paths.
-                "path_depth=3".into(),
             ],
             options: RunOptions {
                 quiet: true,
@@ -101,13 +97,16 @@ fn the_example_photo_becomes_a_scene_close_to_its_truth() {
     let o = &e["objects"][0];
     assert!(num(&o["centre_error_rel"]) < 0.01 && num(&o["yaw_error_deg"]) < 2.0, "{o}");
     assert!(num(&o["height_error_rel"]).abs() < 0.02, "{o}");
-    // Lights kept, and the image: RMSE at 1/8 size within 10 % of the mean (measured 4.5 %; 9.6 % before the
-    // lights were placed off their grid, 12.2 % before the light-scale search), SSIM above 0.8 (0.93).
+    // Lights kept, and the image: RMSE at 1/8 size within 10 % of the mean (measured 2.4 %; on the earlier
+    // 3-vertex photo 4.5 %, 9.6 % before the lights were placed off their grid, 12.2 % before the light-scale
+    // search), SSIM above 0.7 (0.79: the evaluation's 64-spp render of 16-vertex paths against a 4096-spp
+    // photo; its noise alone costs SSIM, 0.53 at 16 spp).
     assert!(e["lights"]["fitted"].as_u64().unwrap() >= 1);
     let image = &e["image"];
-    assert!(num(&image["rmse_rel_1_8"]) < 0.10 && num(&image["ssim"]) > 0.8, "{image}");
+    assert!(num(&image["rmse_rel_1_8"]) < 0.10 && num(&image["ssim"]) > 0.7, "{image}");
     // Albedos (the lights on a grid and moved, not the truth's: the scale they and the albedos share is off
-    // by more than on a known geometry): every surface within 40 % (measured worst 21 %).
+    // by more than on a known geometry): every surface within 40 % (measured worst 15.5 %, the cabinet's
+    // body: fitted as a diffuse surface where the truth has a 0.2 specular layer, see the Appearance issue).
     assert!(num(&e["albedo"]["worst_error_rel"]) < 0.4, "{}", e["albedo"]);
     // The report opens with the photo, the final render and their difference (written beside it, the
     // difference within the two images' range), the evaluation and the fitted lights.

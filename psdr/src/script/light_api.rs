@@ -72,10 +72,11 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
             "max_depth" => o.max_depth = Some(n.max(1.0) as u32),
             "removal_threshold" => o.removal_threshold = n as f32,
             "seed" => o.seed = n.max(0.0) as u32,
+            "tint_prior" => o.tint_prior = n.max(0.0) as f32,
             other => {
                 return Err(Error::Invalid(format!(
                     "fit_lights: unknown option '{other}' (downsample, spp, max_depth, removal_threshold, seed, \
-                     segments, white)"
+                     tint_prior, segments, white)"
                 )))
             }
         }
@@ -145,10 +146,11 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
             "max_size" => o.size_range.1 = n as f32,
             "spp" => o.render.spp = n.max(1.0) as u32,
             "downsample" => o.render.downsample = n.max(1.0) as usize,
+            "tint_prior" => o.render.tint_prior = n.max(0.0) as f32,
             other => {
                 return Err(Error::Invalid(format!(
                     "place_lights: unknown option '{other}' (step, min_step, size_factor, min_size, max_size, spp, \
-                     downsample, segments, white)"
+                     downsample, tint_prior, segments, white)"
                 )))
             }
         }

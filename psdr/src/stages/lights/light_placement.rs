@@ -5,9 +5,12 @@
 //! least-squares fit of all lights' unit renders to the photo (`light_fit`) gets better; the step halves when no
 //! move helps, down to `min_step`. Rendering is linear in radiance, so each trial costs one unit render of the
 //! moved light; trials share one seed, so their noise is common and cancels in the comparison. Lights stay
-//! inside the room's box and within `size_range` of their start.
+//! inside the room's box and within `size_range` of their start. A window the photo shows stays where its
+//! pixels put it (`is_visible_window`): its own pixels are clipped and left out of the fit, so nothing held it
+//! (real room01's moved 10 cm up, its render a band of white over the wall above it).
 
 use super::light_fit::{nnls_fit, unit_render, FitTarget, LightFitOptions};
+use super::window_lights::is_visible_window;
 use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::scene::Scene;
@@ -110,8 +113,10 @@ pub fn refine_light_placement(
     let start: Vec<(Vec3, Vec3)> =
         lights.iter().map(|&i| (scene.objects[i].pose.translation, scene.objects[i].pose.scale)).collect();
     let ro = &opts.render;
-    let target =
-        FitTarget::new(photo, w, h, ro.downsample).with_segments(segments, w, h, ro.downsample).white_lights(ro.white);
+    let target = FitTarget::new(photo, w, h, ro.downsample)
+        .with_segments(segments, w, h, ro.downsample)
+        .white_lights(ro.white)
+        .tint_prior(ro.tint_prior);
     let norm = target.norm();
     let rel = |err: f64| (err / norm).sqrt() as f32;
     let all: Vec<usize> = (0..lights.len()).collect();
@@ -126,6 +131,9 @@ pub fn refine_light_placement(
         let mut improved = false;
         passes += 1;
         for (k, &li) in lights.iter().enumerate() {
+            if is_visible_window(&scene.objects[li].name) {
+                continue;
+            }
             let pose = scene.objects[li].pose;
             let (ax, ay) = (pose.rotation * Vec3::X, pose.rotation * Vec3::Y);
             let in_plane = |f: f32| Vec3::new(f, f, 1.0);

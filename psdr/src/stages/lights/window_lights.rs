@@ -9,6 +9,13 @@ use crate::scene::{rectangle_mesh, Emitter, Material, Object, Pose, Scene};
 use crate::vision::Instances;
 use glam::{Quat, Vec3};
 
+/// Whether `name` is a window the photo shows (`light_window_ID`, ID its instance), as opposed to a candidate
+/// window on a wall the photo does not show (`light_window_wall_x0`, `light_init`): its place and size are
+/// its pixels', so the placement searches leave it where it is.
+pub fn is_visible_window(name: &str) -> bool {
+    name.strip_prefix("light_window_").is_some_and(|id| id.parse::<u32>().is_ok())
+}
+
 fn percentile(v: &mut [f32], q: f32) -> f32 {
     v.sort_by(f32::total_cmp);
     v[((v.len() - 1) as f32 * q).round() as usize]
