@@ -226,6 +226,7 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
     engine.register_fn("windows_init", |s: &mut SceneHandle, obs: ObsHandle, opts: Map| -> Rr<Array> {
         windows_init(s, &obs, &opts).map_err(rhai_err)
     });
+    engine.register_fn("is_visible_window", crate::stages::is_visible_window);
     engine.register_fn("lights_init", |s: &mut SceneHandle| -> Rr<Array> {
         lights_init(s, &Map::new()).map_err(rhai_err)
     });

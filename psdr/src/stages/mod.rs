@@ -11,7 +11,7 @@ mod objects;
 mod room;
 
 pub use evaluation::{evaluate, mask_ious, relative_rmse_downsampled, room_in_camera_frame, ssim_luminance, Merged};
-pub use lights::add_visible_windows;
+pub use lights::{add_visible_windows, is_visible_window};
 pub use lights::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use lights::{init_lights, LightInitOptions};
 pub use lights::{light_motion, LightMotion};

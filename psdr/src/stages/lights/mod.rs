@@ -12,4 +12,4 @@ pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use light_init::{init_lights, LightInitOptions};
 pub use light_motion::{light_motion, LightMotion};
 pub use light_placement::{refine_light_placement, LightPlacement, LightPlacementOptions};
-pub use window_lights::add_visible_windows;
+pub use window_lights::{add_visible_windows, is_visible_window};
