@@ -221,39 +221,9 @@ pub fn estimate_instances(model: &mut OnnxModel, photo: &Image) -> Result<Instan
     let mut ids = vec![0u16; w * h];
     let mut instances: Vec<Instance> = vec![];
     let mut structure_ids: Vec<(usize, u16)> = vec![];
-    let mut seen = vec![false; w * h];
-    let mut stack = vec![];
-    for start in 0..w * h {
-        if seen[start] {
-            continue;
-        }
-        let k = classes[start];
-        // Flood the 4-connected region of this class.
-        let mut region = vec![];
-        seen[start] = true;
-        stack.push(start);
-        while let Some(p) = stack.pop() {
-            region.push(p);
-            let (x, y) = (p % w, p / w);
-            let mut visit = |q: usize| {
-                if !seen[q] && classes[q] == k {
-                    seen[q] = true;
-                    stack.push(q);
-                }
-            };
-            if x > 0 {
-                visit(p - 1);
-            }
-            if x + 1 < w {
-                visit(p + 1);
-            }
-            if y > 0 {
-                visit(p - w);
-            }
-            if y + 1 < h {
-                visit(p + w);
-            }
-        }
+    // The 4-connected regions of each class.
+    for region in crate::base::connected_regions(&classes, w) {
+        let k = classes[region[0]];
         let (class, kind) = canonical_class(ADE20K_CLASSES[k]);
         let new_instance = |instances: &mut Vec<Instance>| {
             let id = instances.len() as u16 + 1;
