@@ -1,6 +1,6 @@
 //! The light fit (unit render per candidate light, non-negative least squares on the downsampled photo,
 //! backward elimination) on a room rendered by psdr with two true ceiling lights among six candidates, and the
-//! NNLS solver against a closed-form case.
+//! NNLS solver against a closed-form case; an unseen ceiling's height from the light it throws.
 
 use glam::Vec3;
 use psdr::backend::CpuBackend;
@@ -107,6 +107,34 @@ fn a_clipped_photo_fits_the_lights_from_what_it_recorded() {
     }
 }
 
+/// The room scene `room_scene` builds from an estimate of test room `r` (its box, the camera of `truth`, a
+/// ceiling at `height`), 128 x 96.
+fn room_estimate_scene(
+    truth: &psdr::scene::Scene,
+    r: &RoomSpec,
+    height: f32,
+    ceiling_seen: bool,
+) -> psdr::scene::Scene {
+    let c = &truth.camera;
+    let to_world =
+        glam::Mat4::from_cols(c.right().extend(0.0), c.up.extend(0.0), (-c.forward).extend(0.0), c.origin.extend(1.0));
+    let estimate = psdr::stages::RoomEstimate {
+        width: r.w,
+        depth: r.d,
+        height,
+        x_min: -r.w / 2.0,
+        z_min: -r.d / 2.0,
+        camera_to_world: to_world.transpose().to_cols_array_2d(),
+        camera_height: r.cam.y,
+        pitch_deg: r.pitch,
+        roll_deg: 0.0,
+        walls_seen: [true; 4],
+        ceiling_seen,
+        floor_inliers: 0,
+    };
+    psdr::stages::room_scene(&estimate, r.fov, 128, 96)
+}
+
 /// Candidate lights on a room: none of the ceiling grid where the camera sees it or behind the camera, one
 /// behind the camera, a window on each wall the photo does not show and none on the walls it shows; then the
 /// fit on a photo lit by a light that is not among the candidates still reproduces its luminance.
@@ -114,32 +142,7 @@ fn a_clipped_photo_fits_the_lights_from_what_it_recorded() {
 fn candidates_avoid_the_view_and_fit_a_light_they_do_not_contain() {
     let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.3, 1.5, 2.6), yaw: 5.0, pitch: -12.0, fov: 60.0 };
     let (truth, _) = room_scene(&r, &[], false, 128, 96);
-    let mut room = psdr::stages::room_scene(
-        &psdr::stages::RoomEstimate {
-            width: r.w,
-            depth: r.d,
-            height: r.h,
-            x_min: -r.w / 2.0,
-            z_min: -r.d / 2.0,
-            camera_to_world: glam::Mat4::from_cols(
-                truth.camera.right().extend(0.0),
-                truth.camera.up.extend(0.0),
-                (-truth.camera.forward).extend(0.0),
-                truth.camera.origin.extend(1.0),
-            )
-            .transpose()
-            .to_cols_array_2d(),
-            camera_height: r.cam.y,
-            pitch_deg: r.pitch,
-            roll_deg: 0.0,
-            walls_seen: [true; 4],
-            ceiling_seen: true,
-            floor_inliers: 0,
-        },
-        r.fov,
-        128,
-        96,
-    );
+    let mut room = room_estimate_scene(&truth, &r, r.h, true);
     let names = psdr::stages::init_lights(&mut room, &psdr::stages::LightInitOptions::default());
     eprintln!("{names:?}");
     let cam = &room.camera;
@@ -279,4 +282,81 @@ fn misplaced_lights_move_back_to_where_the_photo_was_lit() {
         assert!(power.cmpgt(Vec3::splat(0.85)).all() && power.cmplt(Vec3::splat(1.15)).all(), "{name}: power x{power}");
     }
     assert!(placed.relative_rms_after < 0.67 * placed.relative_rms_before, "{placed:?}");
+}
+
+/// A ceiling the photo does not show (the camera pitched 15 degrees down), lit by the test room's 1.2 m light
+/// hanging from it at 2.7 m: the room estimate puts the ceiling at 3.3 m (room_init's guess above the highest
+/// point shown, 2.40 m here), and `search_ceiling_height` brings it back within 10 cm from the light the walls
+/// and floor receive (measured 2.65 m on a 0.6 m grid of candidates; on a 1.2 m grid 2.45 m: the fit then hinges
+/// on where the grid falls, hence the finer grid). The highest point shown bounds the search from below.
+#[test]
+fn an_unseen_ceiling_is_placed_by_the_light_it_throws() {
+    use psdr::stages::{search_ceiling_height, CeilingSearchOptions};
+    let r = RoomSpec { w: 4.5, d: 5.0, h: 2.7, cam: Vec3::new(0.2, 1.4, 2.0), yaw: 5.0, pitch: -15.0, fov: 55.0 };
+    let (mut truth, classes) = room_scene(&r, &furniture(&r, 0.2, &mut SplitMix64(5)), false, 128, 96);
+    truth.settings = psdr::scene::RenderSettings { spp: 256, max_depth: 4, rr_depth: 3, seed: 7 };
+    let f = render_cpu(&SceneData::build(&truth).unwrap(), &truth.settings, &|_, _| {});
+    let ceiling = classes.iter().position(|c| c == "ceiling").unwrap() as u32;
+    assert!(!f.object_id.contains(&ceiling), "the photo must not show the ceiling");
+    let mut room = room_estimate_scene(&truth, &r, 3.3, false);
+    // The truth's boxes and grey material: the search is about the ceiling, not the furniture or the albedos.
+    room.objects.extend(truth.objects.iter().filter(|o| o.name.starts_with("box")).cloned());
+    room.materials.iter_mut().for_each(|m| m.albedo = psdr::scene::Color::Constant(Vec3::splat(0.6)));
+    room.settings = truth.settings.clone();
+    let opts = CeilingSearchOptions {
+        fit: LightFitOptions { spp: 64, downsample: 4, ..Default::default() },
+        lights: psdr::stages::LightInitOptions { cell: 0.6, ..Default::default() },
+        ..Default::default()
+    };
+    let found = search_ceiling_height(&mut CpuBackend, &mut room, &f.radiance, &f.depth, None, &[], &opts).unwrap();
+    eprintln!("{found:?}");
+    assert!(found.lowest < r.h && found.lowest > 2.0, "highest point shown {}", found.lowest);
+    assert!((found.chosen - r.h).abs() <= 0.1, "ceiling at {} for {}", found.chosen, r.h);
+    let y = room.objects.iter().find(|o| o.name == "ceiling").unwrap().pose.translation.y;
+    assert_eq!(y, found.chosen, "the scene's ceiling is moved to the chosen height");
+    assert!((found.start - 3.3).abs() < 1e-5);
+}
+
+/// A ceiling light the photo shows becomes an area light where its pixels are: the test room's 1.2 m panel at
+/// the ceiling's centre, in view and at the 8-bit photo's white, is found by `add_visible_ceiling_lights` with
+/// its centre and size within 5 cm (measured 1.19 x 1.20 m, centre 1 cm off), facing down, on the room
+/// estimate's ceiling; the candidate grid has no light
+/// there (the camera sees that place), and the light placement leaves it where it is.
+#[test]
+fn a_ceiling_light_in_view_becomes_a_light_where_it_shows() {
+    use psdr::stages::{add_visible_ceiling_lights, init_lights, refine_light_placement, LightInitOptions};
+    let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.3, 1.5, 2.6), yaw: 5.0, pitch: 10.0, fov: 60.0 };
+    let (truth, _) = room_scene(&r, &[], false, 128, 96);
+    let f = render_cpu(&SceneData::build(&truth).unwrap(), &truth.settings, &|_, _| {});
+    let photo: Vec<f32> = f.radiance.iter().map(|v| v.min(1.0)).collect();
+    let mut room = room_estimate_scene(&truth, &r, r.h, true);
+    let grid = init_lights(&mut room, &LightInitOptions::default());
+    let names = add_visible_ceiling_lights(&mut room, &photo, &f.depth, None, 6);
+    assert_eq!(names, ["light_panel_0"], "one panel (the grid had {grid:?})");
+    let l = room.objects.iter().find(|o| o.name == names[0]).unwrap();
+    let (lo, hi) = l.parts[0]
+        .positions
+        .iter()
+        .map(|p| l.pose.matrix().transform_point3(*p))
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(p), b.max(p)));
+    eprintln!("panel {lo} .. {hi}");
+    assert!(((lo + hi) / 2.0 - Vec3::new(0.0, r.h - 0.01, 0.0)).length() < 0.05, "centre {}", (lo + hi) / 2.0);
+    assert!(((hi.x - lo.x) - 1.2).abs() < 0.05 && ((hi.z - lo.z) - 1.2).abs() < 0.05, "size {}", hi - lo);
+    assert!((l.pose.rotation * Vec3::Z).dot(-Vec3::Y) > 0.99, "faces down");
+    // No grid candidate where the panel is: the camera sees that place.
+    for g in &grid {
+        let p = room.objects.iter().find(|o| &o.name == g).unwrap().pose.translation;
+        assert!(Vec3::new(p.x, 0.0, p.z).length() > 0.6 || p.y < 2.0, "{g} at {p} overlaps the panel");
+    }
+    let pose = l.pose;
+    let placed = refine_light_placement(
+        &mut CpuBackend,
+        &mut room,
+        &photo,
+        &[],
+        &psdr::stages::LightPlacementOptions::default(),
+    )
+    .unwrap();
+    let l = room.objects.iter().find(|o| o.name == names[0]).unwrap();
+    assert_eq!((l.pose.translation, l.pose.scale), (pose.translation, pose.scale), "{placed:?}");
 }

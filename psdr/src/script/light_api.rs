@@ -1,9 +1,11 @@
 //! The light stage's initialisation in scripts: `lights_init(s)` replaces a room scene's emitters with the
 //! candidate lights, `fit_lights(s, photo)` fits their radiances to the photo and removes the ones it does not
 //! need (in place); the fit goes into result.json as `light_fit`. `windows_init(s, obs)` adds the windows the
-//! photo shows as area lights. `place_lights(s, photo, #{step, min_step, size_factor, spp, downsample})` moves
+//! photo shows as area lights, `ceiling_lights_init(s, obs)` the ceiling lights it shows. `place_lights(s, photo, #{step, min_step, size_factor, spp, downsample})` moves
 //! and sizes the lights by pattern search (`stages::light_placement`), recorded as `light_placement`.
 //! `light_pose_params(s, name, opts)` gives the `optimize` entries that move a light by gradient.
+//! `search_ceiling_height(s, obs, opts)` places a ceiling the photo does not show where its candidate lights
+//! fit the photo best (`stages::ceiling_search`), recorded as `ceiling_search`.
 
 use super::api_support::{check_photo, on_backend, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
@@ -11,7 +13,8 @@ use super::vision_api::ObsHandle;
 use crate::error::Error;
 use crate::loss::Tensor;
 use crate::stages::{
-    fit_lights, init_lights, refine_light_placement, LightFitOptions, LightInitOptions, LightPlacementOptions,
+    fit_lights, init_lights, refine_light_placement, search_ceiling_height, CeilingSearchOptions, LightFitOptions,
+    LightInitOptions, LightPlacementOptions,
 };
 use glam::Vec3;
 use rhai::{Array, Dynamic, Engine, Map};
@@ -116,6 +119,28 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
     Ok(out)
 }
 
+/// `ceiling_lights_init(s, obs)`: the ceiling lights the photo shows, as area lights where their pixels are
+/// (after `lights_init`, which replaces every emitter).
+fn ceiling_lights_init(scene: &mut SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Result<Array> {
+    let mut min_pixels = 6usize;
+    for (k, v) in opts {
+        match k.as_str() {
+            "min_pixels" => min_pixels = number(k, v, "ceiling_lights_init")?.max(0.0) as usize,
+            other => return Err(Error::Invalid(format!("ceiling_lights_init: unknown option '{other}' (min_pixels)"))),
+        }
+    }
+    check_photo("ceiling_lights_init", &scene.0, &obs.0.photo)?;
+    let depth = obs.0.require_depth()?;
+    let names = crate::stages::add_visible_ceiling_lights(
+        &mut scene.0,
+        &obs.0.photo.data,
+        &depth.image.data,
+        obs.0.instances.as_ref(),
+        min_pixels,
+    );
+    Ok(names.into_iter().map(Dynamic::from).collect())
+}
+
 /// `windows_init(s, obs)`: the windows the photo shows, as area lights (after `lights_init`, which replaces
 /// every emitter).
 fn windows_init(scene: &mut SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Result<Array> {
@@ -162,6 +187,58 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
     let v = serde_json::to_value(&placed).map_err(|e| Error::Invalid(e.to_string()))?;
     run.borrow_mut().recorded.insert("light_placement".into(), v.clone());
     rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
+}
+
+/// `search_ceiling_height(s, obs, #{...})`: where the photo shows the ceiling on at least `min_pixels` pixels
+/// with depth, nothing changes (`seen: true`); else the ceiling moves to the height the light fit prefers.
+fn ceiling_height(run: &RunRef, scene: &mut SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Result<Dynamic> {
+    const WHAT: &str = "search_ceiling_height";
+    let photo = Tensor::constant(obs.0.photo.clone());
+    check_photo(WHAT, &scene.0, photo.value())?;
+    let mut o = CeilingSearchOptions::default();
+    o.fit.white = flag(WHAT, opts, "white")?;
+    let segments = surface_masks(WHAT, scene, &photo, opts)?;
+    let mut min_pixels = 30usize;
+    for (k, v) in opts.iter().filter(|(k, _)| !["segments", "white"].contains(&k.as_str())) {
+        let n = number(k, v, WHAT)?;
+        match k.as_str() {
+            "margin" => o.margin = n as f32,
+            "step" => o.step = n as f32,
+            "span" => o.span = n as f32,
+            "max_span" => o.max_span = n as f32,
+            "tolerance" => o.tolerance = (n as f32).max(0.0),
+            "cell" => o.lights.cell = (n as f32).max(0.1),
+            "spp" => o.fit.spp = n.max(1.0) as u32,
+            "downsample" => o.fit.downsample = n.max(1.0) as usize,
+            "seed" => o.fit.seed = n.max(0.0) as u32,
+            "max_depth" => o.fit.max_depth = Some(n.max(1.0) as u32),
+            "min_pixels" => min_pixels = n.max(0.0) as usize,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "{WHAT}: unknown option '{other}' (margin, step, span, max_span, tolerance, cell, spp, downsample, \
+                     seed, max_depth, min_pixels, segments, white)"
+                )))
+            }
+        }
+    }
+    let depth = &obs.0.require_depth()?.image.data;
+    let inst = obs.0.instances.as_ref();
+    let ceiling_pixels = inst.map_or(0, |i| {
+        let ceiling = i.class_mask("ceiling");
+        ceiling.iter().zip(depth).filter(|(m, d)| **m > 0.0 && **d > 0.0).count()
+    });
+    let record = if ceiling_pixels >= min_pixels {
+        serde_json::json!({ "seen": true, "pixels": ceiling_pixels })
+    } else {
+        let img = &photo.value().data;
+        let found = on_backend(run, WHAT, |b| search_ceiling_height(b, &mut scene.0, img, depth, inst, &segments, &o))?;
+        let mut v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
+        v["seen"] = serde_json::json!(false);
+        v["pixels"] = serde_json::json!(ceiling_pixels);
+        v
+    };
+    run.borrow_mut().recorded.insert("ceiling_search".into(), record.clone());
+    rhai::serde::to_dynamic(record).map_err(|e| Error::Invalid(e.to_string()))
 }
 
 /// `light_pose_params(s, name, #{size_range, lr, size_lr})`: `optimize` params entries that move light `name` by
@@ -226,7 +303,18 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
     engine.register_fn("windows_init", |s: &mut SceneHandle, obs: ObsHandle, opts: Map| -> Rr<Array> {
         windows_init(s, &obs, &opts).map_err(rhai_err)
     });
+    let r = run.clone();
+    engine.register_fn("search_ceiling_height", move |s: &mut SceneHandle, obs: ObsHandle, opts: Map| -> Rr<Dynamic> {
+        ceiling_height(&r, s, &obs, &opts).map_err(rhai_err)
+    });
     engine.register_fn("is_visible_window", crate::stages::is_visible_window);
+    engine.register_fn("is_visible_light", crate::stages::is_visible_light);
+    engine.register_fn("ceiling_lights_init", |s: &mut SceneHandle, obs: ObsHandle| -> Rr<Array> {
+        ceiling_lights_init(s, &obs, &Map::new()).map_err(rhai_err)
+    });
+    engine.register_fn("ceiling_lights_init", |s: &mut SceneHandle, obs: ObsHandle, opts: Map| -> Rr<Array> {
+        ceiling_lights_init(s, &obs, &opts).map_err(rhai_err)
+    });
     engine.register_fn("lights_init", |s: &mut SceneHandle| -> Rr<Array> {
         lights_init(s, &Map::new()).map_err(rhai_err)
     });

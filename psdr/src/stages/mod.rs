@@ -11,11 +11,14 @@ mod objects;
 mod room;
 
 pub use evaluation::{evaluate, mask_ious, relative_rmse_downsampled, room_in_camera_frame, ssim_luminance, Merged};
-pub use lights::{add_visible_windows, is_visible_window};
+pub use lights::{
+    add_visible_ceiling_lights, add_visible_windows, is_visible_ceiling_light, is_visible_light, is_visible_window,
+};
 pub use lights::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use lights::{init_lights, LightInitOptions};
 pub use lights::{light_motion, LightMotion};
 pub use lights::{refine_light_placement, LightPlacement, LightPlacementOptions};
+pub use lights::{search_ceiling_height, CeilingSearch, CeilingSearchOptions};
 pub use materials::material_segments;
 pub use materials::{
     contrast, library_textures, search_materials, search_materials_on, search_materials_with, transformed_view,

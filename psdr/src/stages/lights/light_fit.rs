@@ -3,7 +3,9 @@
 //! are the non-negative least-squares fit of the basis to the photo, box-downsampled (per colour channel; this
 //! generalises the paper's search over one global scale). "Model no more than a scene needs": lights are then
 //! removed one at a time (greedy backward elimination) while removing the least useful one raises the fit's
-//! error by less than a stated fraction.
+//! error by less than a stated fraction. A light the photo shows (`is_visible_light`: a window, a ceiling light
+//! in view) is never removed: its pixels say it is there (real room00's material stage dropped one of its two
+//! ceiling lights in view, the rest of the room lit by a window 4x too bright).
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
@@ -456,9 +458,11 @@ pub fn fit_lights(
     let (mut rad, mut err) = fit(&active);
     let all = rel(err);
     // Backward elimination: drop the light whose removal costs least, while that cost stays under the threshold.
+    // A light the photo shows (a window, a ceiling light in view) is there whatever the fit says: it stays.
     while active.len() > 1 {
         let trial = active
             .iter()
+            .filter(|&&drop| !super::is_visible_light(&lights[drop]))
             .map(|&drop| {
                 let rest: Vec<usize> = active.iter().copied().filter(|&i| i != drop).collect();
                 let (r, e) = fit(&rest);

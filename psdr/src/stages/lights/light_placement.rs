@@ -9,8 +9,8 @@
 //! pixels put it (`is_visible_window`): its own pixels are clipped and left out of the fit, so nothing held it
 //! (real room01's moved 10 cm up, its render a band of white over the wall above it).
 
+use super::is_visible_light;
 use super::light_fit::{nnls_fit, unit_render, FitTarget, LightFitOptions};
-use super::window_lights::is_visible_window;
 use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::scene::Scene;
@@ -131,7 +131,7 @@ pub fn refine_light_placement(
         let mut improved = false;
         passes += 1;
         for (k, &li) in lights.iter().enumerate() {
-            if is_visible_window(&scene.objects[li].name) {
+            if is_visible_light(&scene.objects[li].name) {
                 continue;
             }
             let pose = scene.objects[li].pose;
