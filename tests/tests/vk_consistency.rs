@@ -232,6 +232,7 @@ fn light_scale_search_on_the_device_matches_the_cpu() {
         downsample: 4,
         per_channel: true,
         extend: 0,
+        resolution: 1.19,
     };
     let (mut on_cpu, mut on_vk) = (start.clone(), start);
     let a = search_light_scale(&mut CpuBackend, &mut on_cpu, &photo.radiance, &segments, &opts).unwrap();

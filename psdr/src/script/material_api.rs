@@ -1,7 +1,8 @@
 //! Materials in scripts: `material_segments(s, obs, #{min_pixels})` maps each material the photo shows to its
 //! mask (`stages::material_segments`).
 //! Albedos from shading (`stages::albedo_division`): `divide_albedos(s, photo, segments, #{rounds,
-//! spp})` and `light_scale_search(s, photo, segments, #{range, steps, rounds, spp, downsample, per_channel})`, where
+//! spp})` and `light_scale_search(s, photo, segments, #{range, steps, rounds, spp, downsample, per_channel, extend,
+//! resolution})`, where
 //! `segments` maps a homogeneous material's name to the mask of the photo's pixels that show it. Both change
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
 //! `texture_surfaces(s, photo, segments, #{spp, top_k, colour_weight, min_contrast, min_crop, max_crop,
@@ -81,13 +82,14 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             "spp" => o.spp = option_number(what, k, v)?.max(1.0) as u32,
             "downsample" => o.downsample = option_number(what, k, v)?.max(1.0) as usize,
             "extend" => o.extend = option_number(what, k, v)?.max(0.0) as usize,
+            "resolution" => o.resolution = option_number(what, k, v)? as f32,
             "per_channel" => {
                 o.per_channel =
                     v.as_bool().map_err(|_| Error::Invalid(format!("{what}: 'per_channel' is true or false")))?
             }
             other => {
                 return Err(Error::Invalid(format!(
-                    "{what}: unknown option '{other}' (range, steps, rounds, spp, downsample, per_channel, extend)"
+                    "{what}: unknown option '{other}' (range, steps, rounds, spp, downsample, per_channel, extend, resolution)"
                 )))
             }
         }
@@ -99,18 +101,21 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
     c.recorded.insert("light_scale".into(), v.clone());
     // A scale at the range's end is where the search stopped, not a minimum: the photo did not separate the
     // lights' brightness from the albedos there, and the report says so.
-    // (The searched range: `range`, and the steps past its ends where `extend` took the search.)
-    let lo = found.factors.iter().copied().fold(o.range.0, f32::min);
-    let hi = found.factors.iter().copied().fold(o.range.1, f32::max);
-    let edge: Vec<&str> = ["R", "G", "B"]
+    // (The searched range per channel: `range`, and the steps past its ends where `extend` took the search.)
+    let span = |c: usize| {
+        let f = found.factors.iter().map(|f| f[c]);
+        (f.clone().fold(o.range.0, f32::min), f.fold(o.range.1, f32::max))
+    };
+    let edge: Vec<String> = ["R", "G", "B"]
         .into_iter()
         .zip(found.chosen)
-        .filter(|(_, f)| *f <= lo * 1.001 || *f >= hi * 0.999)
-        .map(|(c, _)| c)
+        .enumerate()
+        .filter(|&(c, (_, f))| f <= span(c).0 * 1.001 || f >= span(c).1 * 0.999)
+        .map(|(c, (name, _))| format!("{name} ({:.2}..{:.2})", span(c).0, span(c).1))
         .collect();
     if !edge.is_empty() && !found.factors.is_empty() {
         c.report.notes.push(format!(
-            "light_scale_search: the scale of {} ended at the searched range's end ({lo:.2}..{hi:.2}); the photo did not \
+            "light_scale_search: the scale of {} ended at the searched range's end; the photo did not \
              tell the lights' brightness from the albedos there, so both may be off by that factor",
             edge.join(", ")
         ));

@@ -7,11 +7,14 @@
 //!
 //! `search_light_scale`: scaling every light by s and dividing the albedos anew reproduces each segment's mean
 //! colour for any s; only interreflections tell s apart (light bounced off a surface carries its albedo once
-//! more), and they do so per colour channel. The scale is searched on a log grid over a range, each point
-//! with the albedos divided anew, scored by the squared distance to the photo at 1/downsample size per channel
-//! (estimated from two renders so that their noise does not score; `squared_error_unbiased`); per
-//! channel the best grid point, refined by a parabola through its neighbours. Albedos are clamped to
-//! 0.01..0.95, so a scale that would need brighter surfaces shows up as a worse fit, not a wrong albedo.
+//! more), and they do so per colour channel. Each factor tried has the albedos divided anew and is scored by
+//! the squared distance to the photo at 1/downsample size per channel (estimated from two renders so that
+//! their noise does not score; `squared_error_unbiased`). The channels are independent problems (light
+//! transport and the division are per channel), so one render scores three factors at once, one per channel:
+//! a log grid over a range first, then per channel the grid goes on past an end while its best factor is
+//! there, and the interval beside its best is halved until the best's neighbours are within `resolution`;
+//! the choice is the parabola through the best and its neighbours. Albedos are clamped to 0.01..0.95, so a
+//! scale that would need brighter surfaces shows up as a worse fit, not a wrong albedo.
 //! Both leave out the pixels where the photo is clipped (`vision::unclipped`), and render on the run's backend
 //! (a GPU renders the division's many full-size images far faster than the CPU).
 
@@ -213,7 +216,7 @@ pub fn divide_albedos(
 
 #[derive(Clone, Debug)]
 pub struct LightScaleOptions {
-    /// Factors searched, lowest and highest (log-spaced).
+    /// The first grid's lowest and highest factors (log-spaced, `steps` of them).
     pub range: (f32, f32),
     pub steps: usize,
     /// Division rounds at each factor.
@@ -225,6 +228,9 @@ pub struct LightScaleOptions {
     pub per_channel: bool,
     /// Grid steps tried past either end of `range` while a channel's best factor is at that end.
     pub extend: usize,
+    /// The search ends where the factors beside each channel's best are within this ratio of it (the grid's
+    /// intervals beside the best halved until then; at most the grid's own ratio).
+    pub resolution: f32,
 }
 
 impl Default for LightScaleOptions {
@@ -237,6 +243,7 @@ impl Default for LightScaleOptions {
             downsample: 8,
             per_channel: true,
             extend: 0,
+            resolution: 1.19,
         }
     }
 }
@@ -244,11 +251,12 @@ impl Default for LightScaleOptions {
 /// What the search tried and chose.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct LightScale {
-    pub factors: Vec<f32>,
-    /// Per factor, the squared distance to the photo at 1/downsample size per channel (mean over cells, an
+    /// Per render scored, the factor of each channel (R, G, B) in the order tried.
+    pub factors: Vec<[f32; 3]>,
+    /// Per render, the squared distance to the photo at 1/downsample size per channel (mean over cells, an
     /// unbiased estimate of the noise-free render's: `squared_error_unbiased`; it can fall below 0).
     pub errors: Vec<[f64; 3]>,
-    /// Per factor, those estimates' standard errors.
+    /// Per render, those estimates' standard errors.
     pub standard_errors: Vec<[f64; 3]>,
     /// Per channel, the factor applied to every light's radiance.
     pub chosen: [f32; 3],
@@ -290,9 +298,10 @@ fn squared_error_unbiased(a: &[f32], b: &[f32], photo: &[f32], w: usize, h: usiz
     (e, se)
 }
 
-/// One point of the search: the lights at `factor` times their radiance, the albedos divided anew there.
+/// One render of the search: the lights at `factor` (per channel) times their radiance, the albedos divided
+/// anew there.
 struct ScalePoint {
-    factor: f32,
+    factor: Vec3,
     errors: [f64; 3],
     standard_errors: [f64; 3],
     albedos: Vec<Vec3>,
@@ -321,9 +330,9 @@ impl ScaleScoring<'_> {
         scene: &mut Scene,
         segments: &[Segment],
         opts: &LightScaleOptions,
-        f: f32,
+        f: Vec3,
     ) -> Result<ScalePoint> {
-        self.set(scene, Vec3::splat(f));
+        self.set(scene, f);
         divide_albedos(backend, scene, self.photo, segments, opts.rounds, opts.spp)?;
         let albedos = albedos(scene, segments);
         // Two renders of half the samples each, with their own seeds (the score's noise cancels between them).
@@ -345,11 +354,99 @@ impl ScaleScoring<'_> {
     }
 }
 
+/// One channel's (or, with one factor for all three, the three's) view of the search: the distinct factors
+/// it tried, in ascending order, with their mean error (a factor scored again, while the other channels go
+/// on, is averaged).
+struct ChannelCurve {
+    points: Vec<(f32, f64, usize)>,
+}
+
+impl ChannelCurve {
+    fn new(tried: &[ScalePoint], channels: &[usize]) -> ChannelCurve {
+        let mut points: Vec<(f32, f64, usize)> = vec![];
+        for p in tried {
+            let f = p.factor[channels[0]];
+            let e: f64 = channels.iter().map(|&c| p.errors[c]).sum();
+            match points.iter_mut().find(|q| q.0 == f) {
+                Some(q) => (q.1, q.2) = ((q.1 * q.2 as f64 + e) / (q.2 + 1) as f64, q.2 + 1),
+                None => points.push((f, e, 1)),
+            }
+        }
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        ChannelCurve { points }
+    }
+
+    fn best(&self) -> usize {
+        (0..self.points.len()).min_by(|&a, &b| self.points[a].1.total_cmp(&self.points[b].1)).unwrap_or(0)
+    }
+
+    /// The next factor this channel wants scored, or None when its search is over: past an end of what it
+    /// tried while its best is there (down to `lowest`, up to `highest`), else the middle (in log) of the
+    /// wider interval beside its best while that is wider than `resolution`.
+    fn wants(&self, ratio: f32, lowest: f32, highest: f32, resolution: f32) -> Option<f32> {
+        let (i, n) = (self.best(), self.points.len());
+        let f = |k: usize| self.points[k].0;
+        if i == 0 && f(0) / ratio >= lowest * 0.999 {
+            return Some(f(0) / ratio);
+        }
+        if i + 1 == n && f(i) * ratio <= highest * 1.001 {
+            return Some(f(i) * ratio);
+        }
+        if i == 0 || i + 1 == n {
+            return None;
+        }
+        let (left, right) = ((f(i) / f(i - 1)).ln(), (f(i + 1) / f(i)).ln());
+        // The wider side; of equal ones, the side whose neighbour scored better (the minimum leans there).
+        let go_left = left > right * 1.001 || (left >= right * 0.999 && self.points[i - 1].1 < self.points[i + 1].1);
+        let (a, b, width) = if go_left { (f(i - 1), f(i), left) } else { (f(i), f(i + 1), right) };
+        (width > resolution.ln() * 1.001).then(|| (a * b).sqrt())
+    }
+
+    /// The best factor refined by the parabola (in log factor) through it and its neighbours, kept between them.
+    fn chosen(&self) -> f32 {
+        let i = self.best();
+        let x = |k: usize| f64::from(self.points[k].0.ln());
+        let e = |k: usize| self.points[k].1;
+        if i == 0 || i + 1 == self.points.len() {
+            return self.points[i].0;
+        }
+        let (x0, x1, x2) = (x(i - 1), x(i), x(i + 1));
+        let (d0, d2) = (e(i) - e(i - 1), e(i) - e(i + 1));
+        let num = (x1 - x0).powi(2) * d2 - (x1 - x2).powi(2) * d0;
+        let den = (x1 - x0) * d2 - (x1 - x2) * d0;
+        // A minimum (the best scored lowest) has den < 0 here; a flat or noisy triple keeps the best.
+        let v = if den < 0.0 { x1 - 0.5 * num / den } else { x1 };
+        v.clamp(x0, x2).exp() as f32
+    }
+}
+
+/// The factors (per channel) of the search's next render after `tried`: what each channel group wants
+/// (`ChannelCurve::wants`), a group that is done at its best again; None when every group is done.
+fn next_factor(
+    tried: &[ScalePoint],
+    groups: &[Vec<usize>],
+    ratio: f32,
+    (lowest, highest): (f32, f32),
+    resolution: f32,
+) -> Option<Vec3> {
+    let curves: Vec<ChannelCurve> = groups.iter().map(|g| ChannelCurve::new(tried, g)).collect();
+    let wants: Vec<Option<f32>> = curves.iter().map(|c| c.wants(ratio, lowest, highest, resolution)).collect();
+    if wants.iter().all(Option::is_none) {
+        return None;
+    }
+    let mut f = Vec3::ONE;
+    for ((g, curve), want) in groups.iter().zip(&curves).zip(&wants) {
+        let v = want.unwrap_or_else(|| curve.points[curve.best()].0);
+        for &k in g {
+            f[k] = v;
+        }
+    }
+    Some(f)
+}
+
 /// Searches the lights' common scale per channel (see the module), leaves the scene at the chosen one with
 /// its albedos divided, and returns what it tried. (Searched at 1/downsample of the camera's size, the same
 /// spp per pixel, the noise flattened the error curve and the scale came out 25 % off; it runs at full size.)
-/// Where a channel's best factor is at an end of the grid, the grid goes on past that end, a step at a time
-/// while it stays the best, up to `extend` steps (`LightScaleOptions::extend`).
 pub fn search_light_scale(
     backend: &mut dyn Backend,
     scene: &mut Scene,
@@ -365,6 +462,12 @@ pub fn search_light_scale(
             opts.steps
         )));
     }
+    if !(opts.resolution > 1.0 && opts.resolution.is_finite()) {
+        return Err(Error::Invalid(format!(
+            "light scale search: the resolution is a ratio above 1 (got {})",
+            opts.resolution
+        )));
+    }
     let w = scene.camera.width as usize;
     let recorded_rgb: Vec<f32> = crate::vision::unclipped(photo, w).iter().flat_map(|&u| [u; 3]).collect();
     let scoring = ScaleScoring {
@@ -377,74 +480,64 @@ pub fn search_light_scale(
     if scoring.lights.is_empty() {
         return Ok(out);
     }
-    let progress = crate::progress::activity("the lights' common scale, per factor", Some(opts.steps));
-    // Each factor's division starts from the previous factor's albedos rescaled by the ratio of the factors
-    // (exact without interreflections), so one round lands near the converged albedos. Started from the
-    // previous albedos unchanged, one round left them a factor step off and the chosen scale 15 % off.
-    // Scored where the photo records the scene: clipped pixels are zero in both images.
+    let progress = crate::progress::activity("the lights' common scale, per factor", None);
     let ratio = (hi / lo).powf(1.0 / (opts.steps - 1) as f32);
-    let mut points: Vec<ScalePoint> = vec![];
-    let mut previous = Vec3::ONE;
-    for step in 0..opts.steps {
-        progress.set(step, None);
-        let f = lo * ratio.powi(step as i32);
-        rescale_albedos(scene, segments, previous / f);
-        previous = Vec3::splat(f);
-        points.push(scoring.score(backend, scene, segments, opts, f)?);
-    }
-    // Past an end while a channel's best is there, each new point started from the end's albedos.
-    let best = |points: &[ScalePoint], c: usize| -> usize {
-        let e = |i: usize| if opts.per_channel { points[i].errors[c] } else { points[i].errors.iter().sum() };
-        (0..points.len()).min_by(|&a, &b| e(a).total_cmp(&e(b))).unwrap_or(0)
+    let (lowest, highest) = (lo / ratio.powi(opts.extend as i32), hi * ratio.powi(opts.extend as i32));
+    let groups: Vec<Vec<usize>> = if opts.per_channel { vec![vec![0], vec![1], vec![2]] } else { vec![vec![0, 1, 2]] };
+    // Each render's division starts, per channel, from the albedos of the factor tried nearest it rescaled by
+    // the ratio of the factors (exact without interreflections), so its rounds land near the converged
+    // albedos. (Started from the previous albedos unchanged, one round left them a factor step off and the
+    // chosen scale 15 % off.)
+    let mut tried: Vec<ScalePoint> = vec![];
+    let start_albedos = albedos(scene, segments);
+    let start = |tried: &[ScalePoint], f: Vec3, scene: &mut Scene| {
+        let nearest = |c: usize| {
+            let d = |p: &ScalePoint| (p.factor[c] / f[c]).ln().abs();
+            tried.iter().min_by(|a, b| d(a).total_cmp(&d(b)))
+        };
+        let near: [Option<&ScalePoint>; 3] = std::array::from_fn(nearest);
+        let values: Vec<Vec3> = (0..segments.len())
+            .map(|j| {
+                Vec3::from_array(std::array::from_fn(|c| match near[c] {
+                    Some(p) => p.albedos[j][c] * p.factor[c] / f[c],
+                    None => start_albedos[j][c] / f[c],
+                }))
+                .clamp(Vec3::splat(ALBEDO_RANGE.0), Vec3::splat(ALBEDO_RANGE.1))
+            })
+            .collect();
+        set_albedos(scene, segments, &values);
     };
-    for high in [true, false] {
-        for _ in 0..opts.extend {
-            let end = if high { points.len() - 1 } else { 0 };
-            if !(0..3).any(|c| best(&points, c) == end) {
-                break;
-            }
-            let f = if high { points[end].factor * ratio } else { points[end].factor / ratio };
-            set_albedos(scene, segments, &points[end].albedos);
-            rescale_albedos(scene, segments, Vec3::splat(points[end].factor / f));
-            let p = scoring.score(backend, scene, segments, opts, f)?;
-            if high {
-                points.push(p);
-            } else {
-                points.insert(0, p);
-            }
-        }
+    // The grid: every channel at the same factors.
+    for step in 0..opts.steps {
+        progress.set(tried.len(), None);
+        let f = Vec3::splat(lo * ratio.powi(step as i32));
+        start(&tried, f, scene);
+        tried.push(scoring.score(backend, scene, segments, opts, f)?);
+    }
+    // Then per channel past the ends and into the best's interval, one render scoring every channel's next
+    // factor; a channel that is done scores its best again (averaged into it). Bounded, in case noise keeps
+    // moving a best: the extension steps both ways and five halvings per channel group.
+    let resolution = opts.resolution.min(ratio);
+    let most = opts.steps + 2 * opts.extend + 5 * groups.len();
+    while tried.len() < most {
+        let Some(f) = next_factor(&tried, &groups, ratio, (lowest, highest), resolution) else { break };
+        progress.set(tried.len(), None);
+        start(&tried, f, scene);
+        tried.push(scoring.score(backend, scene, segments, opts, f)?);
     }
     drop(progress);
-    out.factors = points.iter().map(|p| p.factor).collect();
-    out.errors = points.iter().map(|p| p.errors).collect();
-    out.standard_errors = points.iter().map(|p| p.standard_errors).collect();
-    for c in 0..3 {
-        // One channel's error, or the three's sum when the factor is common.
-        let e = |i: usize| if opts.per_channel { out.errors[i][c] } else { out.errors[i].iter().sum() };
-        let i = best(&points, c);
-        let mut x = out.factors[i].ln();
-        if i > 0 && i + 1 < out.factors.len() {
-            let curve = e(i - 1) - 2.0 * e(i) + e(i + 1);
-            if curve > 0.0 {
-                let step = (x - out.factors[i - 1].ln()) as f64;
-                x += (0.5 * step * (e(i - 1) - e(i + 1)) / curve) as f32;
-            }
+    out.factors = tried.iter().map(|p| p.factor.to_array()).collect();
+    out.errors = tried.iter().map(|p| p.errors).collect();
+    out.standard_errors = tried.iter().map(|p| p.standard_errors).collect();
+    for g in &groups {
+        let v = ChannelCurve::new(&tried, g).chosen();
+        for &k in g {
+            out.chosen[k] = v;
         }
-        out.chosen[c] = x.exp();
     }
-    // The chosen scale starts from the albedos of the grid point nearest it (per channel), rescaled.
+    // The chosen scale starts from the albedos of the factor tried nearest it (per channel), rescaled.
     let chosen = Vec3::from_array(out.chosen);
-    let nearest = |c: usize| {
-        let d = |i: usize| (out.factors[i] / out.chosen[c]).ln().abs();
-        (0..out.factors.len()).min_by(|&a, &b| d(a).total_cmp(&d(b))).unwrap_or(0)
-    };
-    let near: [usize; 3] = std::array::from_fn(nearest);
-    for (j, s) in segments.iter().enumerate() {
-        if let Color::Constant(a) = &mut scene.materials[s.material].albedo {
-            let start = std::array::from_fn(|c| points[near[c]].albedos[j][c] * out.factors[near[c]] / out.chosen[c]);
-            *a = Vec3::from_array(start).clamp(Vec3::splat(ALBEDO_RANGE.0), Vec3::splat(ALBEDO_RANGE.1));
-        }
-    }
+    start(&tried, chosen, scene);
     scoring.set(scene, chosen);
     divide_albedos(backend, scene, photo, segments, opts.rounds, opts.spp)?;
     Ok(out)
@@ -467,15 +560,6 @@ fn albedos(scene: &Scene, segments: &[Segment]) -> Vec<Vec3> {
     segments.iter().map(albedo).collect()
 }
 
-/// Multiplies the segments' albedos by `by` per channel, within the division's bounds.
-fn rescale_albedos(scene: &mut Scene, segments: &[Segment], by: Vec3) {
-    for s in segments {
-        if let Color::Constant(a) = &mut scene.materials[s.material].albedo {
-            *a = (*a * by).clamp(Vec3::splat(ALBEDO_RANGE.0), Vec3::splat(ALBEDO_RANGE.1));
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -485,6 +569,40 @@ mod tests {
     /// variance. 64x64 cells of 4 pixels, noise of standard deviation 0.3 against an error of 0.1: a cell's
     /// product has standard deviation sqrt(0.0225^2 + 2 * 0.01 * 0.0225) = 0.031 (0.0225 the variance of a
     /// 4-pixel mean), the mean over 4096 cells 5e-4, so 0.01 +- 0.003 is a 6-sigma bound.
+    /// The search's per-channel steps on error curves known in closed form, e(f) = (ln f - ln m)^2 per channel
+    /// (a parabola in log factor, so the final parabola through the best and its neighbours is exact): from the
+    /// grid 0.71, 1, 1.41, a minimum inside it is bracketed to 2^(1/4) and found exactly; one at 3 (past the
+    /// grid) is reached by extension; one past the extension's reach ends at its end. One render scores the
+    /// three channels' factors at once: 3 + a few renders, not a grid for each.
+    #[test]
+    fn the_search_brackets_each_channel_minimum_with_few_renders() {
+        let minima = [1.3f32, 3.0, 10.0];
+        let score = |f: Vec3| ScalePoint {
+            factor: f,
+            errors: std::array::from_fn(|c| f64::from((f[c] / minima[c]).ln()).powi(2)),
+            standard_errors: [0.0; 3],
+            albedos: vec![],
+        };
+        let (ratio, resolution) = (2f32.sqrt(), 2f32.powf(0.25));
+        let (lowest, highest) = (0.5f32.sqrt() / ratio.powi(4), 2f32.sqrt() * ratio.powi(4));
+        let mut tried: Vec<ScalePoint> = [0.5f32.sqrt(), 1.0, 2f32.sqrt()].map(|f| score(Vec3::splat(f))).into();
+        let groups = [vec![0usize], vec![1], vec![2]];
+        while let Some(f) = next_factor(&tried, &groups, ratio, (lowest, highest), resolution) {
+            tried.push(score(f));
+            assert!(tried.len() < 20, "the search does not end");
+        }
+        let chosen: Vec<f32> = groups.iter().map(|g| ChannelCurve::new(&tried, g).chosen()).collect();
+        assert!((chosen[0] / 1.3 - 1.0).abs() < 1e-3, "{chosen:?}");
+        assert!((chosen[1] / 3.0 - 1.0).abs() < 1e-3, "{chosen:?}");
+        assert!((chosen[2] / highest - 1.0).abs() < 1e-3, "past the reach: its end, {chosen:?}");
+        // 3 of the grid, 4 extensions for the channel that runs out of reach (the others refine meanwhile).
+        assert!(tried.len() <= 3 + 4 + 2, "{} renders", tried.len());
+        // The bracketed channels' best neighbours are within the resolution.
+        let c0 = ChannelCurve::new(&tried, &[0]);
+        let i = c0.best();
+        assert!(c0.points[i + 1].0 / c0.points[i - 1].0 <= resolution * resolution * 1.001);
+    }
+
     #[test]
     fn the_two_render_score_does_not_count_the_noise() {
         let (w, h) = (128, 128);
