@@ -10,11 +10,14 @@
 //! instance got), median and worst object mask IoU (result.json's `evaluation.mask_iou`: each placed object's
 //! render against its instance), image RMSE at 1/8 size and SSIM, the albedo error's median over surfaces,
 //! light counts, and the seconds of every stage and in all. A crash is recorded and the benchmark goes on.
-//! real_rooms.svg: object mask IoU and total time per room for both modes.
+//! real_rooms.svg: object mask IoU and total time per room for both modes, and once a preset ran (modes `fast`
+//! and `thorough`: the default database with the script's iterations and samples turned down or up, `PRESETS`),
+//! image error against total time per preset with the true scenes' error as the floor.
 //!
 //! `cargo run -p psdr-benchmarks --release --bin bench_real_rooms`. The rooms are generated once into
 //! target/real_rooms (BENCH_REAL_ROOMS_DIR to choose another folder) and reused. Options:
-//! `BENCH_REAL_ROOMS_ONLY=ROOM:MODE` (e.g. `room03:held_out`, or `room03` for both modes) runs those only;
+//! `BENCH_REAL_ROOMS_ONLY=ROOM:MODE,...` (e.g. `room03:held_out`, or `room03,room04` for every mode) runs
+//! those only; `BENCH_REAL_ROOMS_MODES=default,fast,thorough,truth` chooses the modes (default: both database modes);
 //! `BENCH_REAL_ROOMS_SETS="key=value,..."` passes `--set` overrides to every run (quick smoke tests: fewer
 //! iterations; the CSV's `sets` column keeps them); `BENCH_REAL_ROOMS_CHART_ONLY=1` redraws the chart from the
 //! CSV; `BENCH_REAL_ROOMS_RESCORE=1` recomputes the clipped image error of every row from the runs' renders;
@@ -41,6 +44,39 @@ const MODES: [&str; 2] = ["default", "held_out"];
 /// truth's room and furniture (grey, no lights: lights and materials fitted); `known_lights` adds the truth's
 /// lights where they are (radiances and materials fitted).
 const ATTRIBUTION: [&str; 3] = ["truth", "known_geometry", "known_lights"];
+/// Presets (`BENCH_REAL_ROOMS_MODES=fast,thorough`): the default database and the script's defaults with
+/// these overrides, for the chart of image error against total time (`default` is the script as it is).
+/// fast: fewer iterations and samples everywhere (the light scale from its first grid); thorough: more of both
+/// (the light scale bracketed to 9 % instead of 19 %).
+const PRESETS: [(&str, &[&str]); 2] = [
+    (
+        "fast",
+        &[
+            "room_iters=15",
+            "object_iters=20",
+            "light_spp=64",
+            "light_place_spp=16",
+            "ceiling_spp=16",
+            "albedo_rounds=1",
+            "light_scale_rounds=1",
+            "light_scale_resolution=1.42",
+            "texture_spp=64",
+            "material_iters=10",
+        ],
+    ),
+    (
+        "thorough",
+        &[
+            "room_iters=80",
+            "object_iters=160",
+            "light_spp=512",
+            "albedo_rounds=4",
+            "light_scale_resolution=1.09",
+            "material_iters=60",
+            "material_spp=16",
+        ],
+    ),
+];
 /// The evaluation's samples per pixel (scripts/room.rhai `evaluation_spp`).
 const EVALUATION_SPP: u32 = 16;
 /// Samples per pixel of a run's final render.png (and of the truth's, for the clipped image error).
@@ -52,6 +88,7 @@ s_materials,s_total,image_rmse_clipped_1_8_pct";
 
 /// Column indices of the CSV (see HEADER).
 const COL_IOU: usize = 9;
+const COL_RMSE: usize = 11;
 const COL_TOTAL: usize = 20;
 
 /// A CSV field: no commas or line breaks.
@@ -183,6 +220,11 @@ fn rescore(dir: &Path, row: &str) -> String {
     format!("{base},{}", value.map(|v| format!("{v:.2}")).unwrap_or_default())
 }
 
+/// The `--set` overrides of a preset mode (none for the other modes).
+fn preset_sets(mode: &str) -> &'static [&'static str] {
+    PRESETS.iter().find(|(name, _)| *name == mode).map_or(&[], |(_, sets)| sets)
+}
+
 /// Runs the pipeline on one room in one mode; the CSV row.
 fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) -> String {
     let models = read_models(room_dir).unwrap_or_default();
@@ -190,7 +232,7 @@ fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) 
     let mut files: Vec<PathBuf> = models.iter().filter_map(|m| m["file"].as_str().map(PathBuf::from)).collect();
     files.sort();
     files.dedup();
-    let set_text = field(&sets.join(" "));
+    let set_text = field([preset_sets(mode).join(" "), sets.join(" ")].join(" ").trim());
     let crashed = |e: String| format!("{room},{mode},1,{},{set_text}{}\n", field(&e), ",".repeat(17));
     if mode == "truth" {
         return truth_floor(room_dir, room).unwrap_or_else(|e| crashed(e.to_string()));
@@ -208,7 +250,8 @@ fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) 
     let out = room_dir.join(format!("out-{mode}"));
     let _ = std::fs::remove_dir_all(&out);
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/room.rhai");
-    let mut all_sets = sets.to_vec();
+    let mut all_sets: Vec<String> = preset_sets(mode).iter().map(|s| s.to_string()).collect();
+    all_sets.extend_from_slice(sets);
     all_sets.push(format!("truth={}", room_dir.join("truth.json").display()));
     if mode == "known_geometry" || mode == "known_lights" {
         if let Err(e) = write_known_starts(room_dir) {
@@ -336,17 +379,87 @@ fn chart(csv: &str) -> String {
         c.series.push(Series { line: Line::None, markers: false, legend: false, ..Series::line("rooms", pins) });
     }
     let crashes = rows.iter().filter(|r| r.get(2) == Some(&"1")).count();
-    let overridden = rows.iter().filter(|r| r.get(4).is_some_and(|s| !s.is_empty())).count();
+    let overridden = rows
+        .iter()
+        .filter(|r| r.get(1).is_some_and(|m| preset_sets(m).is_empty()) && r.get(4).is_some_and(|s| !s.is_empty()))
+        .count();
+    let mut charts = vec![iou, time];
+    charts.extend(presets_chart(&rows));
     grid(
         "The whole pipeline on 12 rooms of real furniture",
         &format!(
             "scripts/room.rhai, 512x384 photos, Sweet Home 3D models; held_out: the true models removed from the \
              database; {crashes} crashed runs; {overridden} runs with --set overrides (see the CSV)"
         ),
-        &[iou, time],
+        &charts,
         2,
         &[],
     )
+}
+
+/// Image error against total time per preset (fast, default, thorough): each room a point, each preset's
+/// median a labelled point, over the rooms every preset and the truth finished; the true scenes' median error
+/// as the floor (what any fit reaches at the evaluation's samples). None until a preset besides the default ran.
+fn presets_chart(rows: &[Vec<&str>]) -> Option<XyChart> {
+    let names: Vec<&str> = std::iter::once("default").chain(PRESETS.iter().map(|(n, _)| *n)).collect();
+    let value = |r: &Vec<&str>, i: usize| r.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::NAN);
+    let row = |room: &str, mode: &str| {
+        rows.iter().find(|r| r[0] == room && r.get(1) == Some(&mode) && r.get(2) == Some(&"0"))
+    };
+    let ran: Vec<&str> = names.iter().copied().filter(|m| rows.iter().any(|r| r.get(1) == Some(m))).collect();
+    let mut rooms: Vec<&str> = rows.iter().map(|r| r[0]).collect();
+    rooms.dedup();
+    rooms.retain(|room| ran.iter().chain(["truth"].iter()).all(|m| row(room, m).is_some()));
+    if ran.len() < 2 || rooms.is_empty() {
+        return None;
+    }
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            0.5 * (v[n / 2 - 1] + v[n / 2])
+        }
+    };
+    let mut chart = XyChart::new(
+        &format!("Image RMSE at 1/8 size against total time ({} rooms)", rooms.len()),
+        "seconds per photo (2 CPU cores)",
+        "% of the photo's mean",
+    );
+    let colours = ["#d62728", "#1f77b4", "#2ca02c"];
+    let mut medians = vec![];
+    let mut span = (f64::INFINITY, 0.0f64);
+    for (k, mode) in names.iter().enumerate().filter(|(_, m)| ran.contains(m)) {
+        let of: Vec<&Vec<&str>> = rooms.iter().filter_map(|room| row(room, mode)).collect();
+        let points: Vec<Point> = of
+            .iter()
+            .map(|r| Point::labelled(value(r, COL_TOTAL), value(r, COL_RMSE), r[0].trim_start_matches("room")))
+            .collect();
+        let (t, e) = (
+            median(of.iter().map(|r| value(r, COL_TOTAL)).collect()),
+            median(of.iter().map(|r| value(r, COL_RMSE)).collect()),
+        );
+        span = (
+            span.0.min(points.iter().map(|p| p.x).fold(f64::INFINITY, f64::min)),
+            span.1.max(points.iter().map(|p| p.x).fold(0.0, f64::max)),
+        );
+        medians.push(Point::labelled(t, e, format!("{mode} (median)")));
+        let mut series = Series::marked(*mode, points).color(colours[k]);
+        series.line = Line::None;
+        chart.series.push(series);
+    }
+    chart.series.push(Series::marked("medians", medians).color("#444444"));
+    let floor = median(rooms.iter().filter_map(|room| row(room, "truth")).map(|r| value(r, COL_RMSE)).collect());
+    let mut truth = Series::line(
+        format!("true scene, median {floor:.1} % (the floor)"),
+        vec![Point::new(0.0, floor), Point::new(span.1 * 1.05, floor)],
+    )
+    .color("#000000");
+    truth.line = Line::Dashed;
+    chart.series.push(truth);
+    chart.hlines = vec![0.0];
+    Some(chart)
 }
 
 /// The CSV with `new` rows replacing the rows of the same (room, mode), sorted.
@@ -396,8 +509,10 @@ fn main() -> anyhow::Result<()> {
     let modes: Vec<String> = std::env::var("BENCH_REAL_ROOMS_MODES")
         .map(|s| s.split(',').map(|m| m.trim().to_string()).filter(|m| !m.is_empty()).collect())
         .unwrap_or_else(|_| MODES.iter().map(|m| m.to_string()).collect());
-    if let Some(bad) = modes.iter().find(|m| !MODES.contains(&m.as_str()) && !ATTRIBUTION.contains(&m.as_str())) {
-        anyhow::bail!("BENCH_REAL_ROOMS_MODES: unknown mode '{bad}' ({MODES:?}, {ATTRIBUTION:?})");
+    let known = |m: &str| MODES.contains(&m) || ATTRIBUTION.contains(&m) || !preset_sets(m).is_empty();
+    if let Some(bad) = modes.iter().find(|m| !known(m)) {
+        let presets: Vec<&str> = PRESETS.iter().map(|(n, _)| *n).collect();
+        anyhow::bail!("BENCH_REAL_ROOMS_MODES: unknown mode '{bad}' ({MODES:?}, {ATTRIBUTION:?}, {presets:?})");
     }
     let sets: Vec<String> = std::env::var("BENCH_REAL_ROOMS_SETS")
         .map(|s| s.split(',').map(str::trim).filter(|s| !s.is_empty()).map(String::from).collect())
@@ -406,7 +521,9 @@ fn main() -> anyhow::Result<()> {
     for k in 0..ROOMS {
         let room = format!("room{k:02}");
         for mode in modes.iter().map(String::as_str) {
-            let chosen = only.as_ref().is_none_or(|o| *o == room || *o == format!("{room}:{mode}"));
+            let chosen = only
+                .as_ref()
+                .is_none_or(|o| o.split(',').any(|o| o.trim() == room || o.trim() == format!("{room}:{mode}")));
             if !chosen {
                 continue;
             }
