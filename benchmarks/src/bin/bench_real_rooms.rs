@@ -88,7 +88,8 @@ s_materials,s_total,image_rmse_clipped_1_8_pct";
 
 /// Column indices of the CSV (see HEADER).
 const COL_IOU: usize = 9;
-const COL_RMSE: usize = 11;
+/// The image error as the photo's 8-bit encoding sees a render (the truth rows' own column is unclipped).
+const COL_CLIPPED: usize = 21;
 const COL_TOTAL: usize = 20;
 
 /// A CSV field: no commas or line breaks.
@@ -397,7 +398,7 @@ fn chart(csv: &str) -> String {
     )
 }
 
-/// Image error against total time per preset (fast, default, thorough): each room a point, each preset's
+/// Image error (clipped) against total time per preset (fast, default, thorough): each room a point, each preset's
 /// median a labelled point, over the rooms every preset and the truth finished; the true scenes' median error
 /// as the floor (what any fit reaches at the evaluation's samples). None until a preset besides the default ran.
 fn presets_chart(rows: &[Vec<&str>]) -> Option<XyChart> {
@@ -425,7 +426,7 @@ fn presets_chart(rows: &[Vec<&str>]) -> Option<XyChart> {
     let mut chart = XyChart::new(
         &format!("Image RMSE at 1/8 size against total time ({} rooms)", rooms.len()),
         "seconds per photo (2 CPU cores)",
-        "% of the photo's mean",
+        "% of the photo's mean (render.png, clipped as the photo)",
     );
     let colours = ["#d62728", "#1f77b4", "#2ca02c"];
     let mut medians = vec![];
@@ -434,11 +435,11 @@ fn presets_chart(rows: &[Vec<&str>]) -> Option<XyChart> {
         let of: Vec<&Vec<&str>> = rooms.iter().filter_map(|room| row(room, mode)).collect();
         let points: Vec<Point> = of
             .iter()
-            .map(|r| Point::labelled(value(r, COL_TOTAL), value(r, COL_RMSE), r[0].trim_start_matches("room")))
+            .map(|r| Point::labelled(value(r, COL_TOTAL), value(r, COL_CLIPPED), r[0].trim_start_matches("room")))
             .collect();
         let (t, e) = (
             median(of.iter().map(|r| value(r, COL_TOTAL)).collect()),
-            median(of.iter().map(|r| value(r, COL_RMSE)).collect()),
+            median(of.iter().map(|r| value(r, COL_CLIPPED)).collect()),
         );
         span = (
             span.0.min(points.iter().map(|p| p.x).fold(f64::INFINITY, f64::min)),
@@ -449,8 +450,9 @@ fn presets_chart(rows: &[Vec<&str>]) -> Option<XyChart> {
         series.line = Line::None;
         chart.series.push(series);
     }
+    medians.sort_by(|a, b| a.x.total_cmp(&b.x));
     chart.series.push(Series::marked("medians", medians).color("#444444"));
-    let floor = median(rooms.iter().filter_map(|room| row(room, "truth")).map(|r| value(r, COL_RMSE)).collect());
+    let floor = median(rooms.iter().filter_map(|room| row(room, "truth")).map(|r| value(r, COL_CLIPPED)).collect());
     let mut truth = Series::line(
         format!("true scene, median {floor:.1} % (the floor)"),
         vec![Point::new(0.0, floor), Point::new(span.1 * 1.05, floor)],
