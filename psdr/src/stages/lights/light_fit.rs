@@ -7,6 +7,7 @@
 //! in view) is never removed: its pixels say it is there (real room00's material stage dropped one of its two
 //! ceiling lights in view, the rest of the room lit by a window 4x too bright).
 
+use super::albedo_free_split::AlbedoFreeSplit;
 use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::render::SceneData;
@@ -100,9 +101,6 @@ pub(crate) const NO_SEGMENT: u32 = u32::MAX;
 /// A reduced pixel belongs to a segment when this share of the photo pixels under it do.
 const SEGMENT_SHARE: f32 = 0.9;
 
-/// Alternations of the radiances' and the segments' albedo factors in `nnls_fit`.
-const ALBEDO_ROUNDS: usize = 4;
-
 impl FitTarget {
     pub(crate) fn new(photo: &[f32], w: usize, h: usize, k: usize) -> FitTarget {
         let k = k.max(1);
@@ -183,32 +181,8 @@ pub fn nnls(a: &[Vec<f64>], b: &[f64]) -> Vec<f64> {
     let atb: Vec<f64> = (0..n).map(|i| dot(&a[i], b)).collect();
     // Unconstrained least squares on the passive set (normal equations, Gaussian elimination).
     let solve = |set: &[usize]| -> Vec<f64> {
-        let m = set.len();
-        let mut mat: Vec<Vec<f64>> = set.iter().map(|&i| set.iter().map(|&j| ata[i][j]).collect()).collect();
-        let mut rhs: Vec<f64> = set.iter().map(|&i| atb[i]).collect();
-        for c in 0..m {
-            let p = (c..m).max_by(|&x, &y| mat[x][c].abs().total_cmp(&mat[y][c].abs())).unwrap_or(c);
-            mat.swap(c, p);
-            rhs.swap(c, p);
-            let d = mat[c][c];
-            if d.abs() < 1e-300 {
-                continue;
-            }
-            for r in c + 1..m {
-                let f = mat[r][c] / d;
-                let row = mat[c].clone();
-                for (v, pv) in mat[r].iter_mut().zip(row).skip(c) {
-                    *v -= f * pv;
-                }
-                rhs[r] -= f * rhs[c];
-            }
-        }
-        let mut z = vec![0.0; m];
-        for c in (0..m).rev() {
-            let s: f64 = (c + 1..m).map(|j| mat[c][j] * z[j]).sum();
-            z[c] = if mat[c][c].abs() < 1e-300 { 0.0 } else { (rhs[c] - s) / mat[c][c] };
-        }
-        z
+        let mat: Vec<Vec<f64>> = set.iter().map(|&i| set.iter().map(|&j| ata[i][j]).collect()).collect();
+        solve_dense(mat, set.iter().map(|&i| atb[i]).collect())
     };
     let mut x = vec![0.0; n];
     let mut passive: Vec<usize> = vec![];
@@ -252,6 +226,33 @@ pub fn nnls(a: &[Vec<f64>], b: &[f64]) -> Vec<f64> {
     x
 }
 
+/// Solves m x = rhs by Gaussian elimination with partial pivoting; a singular pivot leaves its unknown at 0.
+pub(crate) fn solve_dense(mut m: Vec<Vec<f64>>, mut rhs: Vec<f64>) -> Vec<f64> {
+    let n = rhs.len();
+    for c in 0..n {
+        let p = (c..n).max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs())).unwrap_or(c);
+        m.swap(c, p);
+        rhs.swap(c, p);
+        if m[c][c].abs() < 1e-300 {
+            continue;
+        }
+        for r in c + 1..n {
+            let f = m[r][c] / m[c][c];
+            let row = m[c].clone();
+            for (v, pv) in m[r].iter_mut().zip(row).skip(c) {
+                *v -= f * pv;
+            }
+            rhs[r] -= f * rhs[c];
+        }
+    }
+    let mut z = vec![0.0; n];
+    for c in (0..n).rev() {
+        let s: f64 = (c + 1..n).map(|j| m[c][j] * z[j]).sum();
+        z[c] = if m[c][c].abs() < 1e-300 { 0.0 } else { (rhs[c] - s) / m[c][c] };
+    }
+    z
+}
+
 /// `scene` lit by object `light` alone at unit radiance, with the fit's render settings.
 pub(crate) fn lit_by(scene: &Scene, light: usize, opts: &LightFitOptions) -> Scene {
     let mut s = scene.clone();
@@ -291,8 +292,8 @@ pub(crate) fn unit_render(
 
 /// Per channel, the non-negative least-squares radiances of the `active` basis images for `target` (its
 /// left-out pixels dropped): the radiances (zero for inactive ones) and the squared error summed over channels.
-/// With segments (`FitTarget::with_segments`) each segment's albedo factor per channel is fitted too,
-/// alternating with the radiances (each step least squares, so the error never rises); with
+/// With segments (`FitTarget::with_segments`) each segment's albedo factor per channel is fitted too, jointly
+/// with the radiances (`AlbedoFreeSplit`: the radiances with each factor at its closed-form best); with
 /// `FitTarget::white_lights` each light has one radiance for the three channels.
 /// The error also counts every left-out (clipped) pixel the fit leaves darker than the photo: a clipped value
 /// is a lower bound, so a window or lamp the photo shows must stay at least that bright where it shows (without
@@ -325,21 +326,32 @@ pub(crate) fn nnls_fit(basis: &[Vec<f32>], target: &FitTarget, active: &[usize])
             None => nnls(&cols, &b),
         };
         let mut x = solve(scaled(&albedo));
-        for _ in 0..if free { ALBEDO_ROUNDS } else { 0 } {
-            // Each segment's factor per channel: least squares of the photo against the lights' render there.
-            let (mut num, mut den) = (vec![vec![0.0f64; target.segments]; 3], vec![vec![0.0f64; target.segments]; 3]);
+        if free {
+            // The radiances with every free factor at its best (variable projection), then the factors.
+            let block = |c: usize, s: u32| -> Option<usize> {
+                let free = s != NO_SEGMENT && (target.white || s != target.largest);
+                let k = g.iter().position(|&gc| gc == c)?;
+                free.then_some(k * target.segments + s as usize)
+            };
+            let mut split = AlbedoFreeSplit::new(active.len(), g.len() * target.segments);
             for (q, &(c, p)) in rows.iter().enumerate() {
-                let s = target.segment[p];
-                if s != NO_SEGMENT {
-                    let m: f64 = active.iter().zip(&x).map(|(&i, xk)| unit(i, (c, p)) * xk).sum();
-                    num[c][s as usize] += b[q] * m;
-                    den[c][s as usize] += m * m;
+                let u: Vec<f64> = active.iter().map(|&i| unit(i, (c, p))).collect();
+                match block(c, target.segment[p]) {
+                    Some(k) => split.blocks[k].add(b[q], &u),
+                    None => split.fixed.add(b[q], &u),
                 }
             }
-            for c in g.iter().copied() {
-                for s in (0..target.segments).filter(|&s| target.white || s as u32 != target.largest) {
-                    if den[c][s] > 1e-30 {
-                        albedo[c][s] = (num[c][s] / den[c][s]).clamp(0.02, 50.0);
+            if let Some(anchor) = &anchor {
+                let cols = scaled(&albedo);
+                split.ridge = (0..active.len())
+                    .map(|k| (target.tint_prior * cols[k].iter().map(|v| v * v).sum::<f64>(), anchor[k][g[0]]))
+                    .collect();
+            }
+            x = split.solve(&x);
+            for (k, &c) in g.iter().enumerate() {
+                for s in (0..target.segments).filter(|&s| block(c, s as u32).is_some()) {
+                    if let Some((f, _)) = split.blocks[k * target.segments + s].factor(&x) {
+                        albedo[c][s] = f.clamp(0.02, 50.0);
                     }
                 }
             }
@@ -347,8 +359,8 @@ pub(crate) fn nnls_fit(basis: &[Vec<f32>], target: &FitTarget, active: &[usize])
                 let l = target.largest as usize;
                 let m = (albedo[0][l] + albedo[1][l] + albedo[2][l]) / 3.0;
                 albedo.iter_mut().flatten().for_each(|a| *a /= m);
+                x = solve(scaled(&albedo));
             }
-            x = solve(scaled(&albedo));
         }
         for (k, &i) in active.iter().enumerate() {
             g.iter().for_each(|&c| rad[i][c] = x[k] as f32);

@@ -4,6 +4,7 @@
 //! radiances fitted to the photo with backward elimination (`light_fit`), and their positions and sizes
 //! (`light_placement`), and how each may move when the joint fit moves it by gradient (`light_motion`).
 
+mod albedo_free_split;
 mod ceiling_panels;
 mod ceiling_search;
 mod light_fit;
