@@ -195,9 +195,18 @@ fn large_mesh_several_lights_exr_texture_and_deep_paths_agree() {
 #[test]
 fn light_scale_search_on_the_device_matches_the_cpu() {
     use psdr::scene::Color;
-    use psdr::stages::{search_light_scale, LightScaleOptions, Segment};
+    use psdr::stages::{search_light_scale, LightFitOptions, LightScaleOptions, Segment};
     let Some(mut vk) = vk() else { return };
-    let mut truth = room(48, 36, 8);
+    // A second, warmer lamp across the room: two lights whose split the search refits.
+    let two_lamps = |mut s: Scene| {
+        let mut lamp = s.objects.iter().find(|o| o.emitter.is_some()).unwrap().clone();
+        lamp.name = "second_lamp".into();
+        lamp.pose.translation = glam::Vec3::new(1.1, 1.9, 0.4);
+        lamp.emitter = Some(Emitter { radiance: glam::Vec3::new(6.0, 4.0, 2.5), two_sided: true });
+        s.objects.push(lamp);
+        s
+    };
+    let mut truth = two_lamps(room(48, 36, 8));
     for o in truth.objects.iter_mut() {
         if let Some(e) = o.emitter.as_mut() {
             e.radiance *= 1.3;
@@ -220,7 +229,7 @@ fn light_scale_search_on_the_device_matches_the_cpu() {
         .filter(|s| s.mask.iter().sum::<f32>() >= 8.0)
         .collect();
     assert!(segments.len() >= 3, "only {} segments", segments.len());
-    let mut start = room(48, 36, 8);
+    let mut start = two_lamps(room(48, 36, 8));
     for s in &segments {
         start.materials[s.material].albedo = Color::Constant(glam::Vec3::splat(0.5));
     }
@@ -233,6 +242,8 @@ fn light_scale_search_on_the_device_matches_the_cpu() {
         per_channel: true,
         extend: 0,
         resolution: 1.19,
+        // The lights' split refitted at each factor: the unit renders and their fit on each backend too.
+        split: Some(LightFitOptions { spp: 16, downsample: 4, ..Default::default() }),
     };
     let (mut on_cpu, mut on_vk) = (start.clone(), start);
     let a = search_light_scale(&mut CpuBackend, &mut on_cpu, &photo.radiance, &segments, &opts).unwrap();

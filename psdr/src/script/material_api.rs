@@ -17,8 +17,8 @@ use super::vision_api::ObsHandle;
 use crate::error::Error;
 use crate::loss::{Image, Tensor};
 use crate::stages::{
-    divide_albedos, library_textures, material_segments, search_light_scale, texture_surfaces, LightScaleOptions,
-    Segment, SurfaceTextureOptions,
+    divide_albedos, library_textures, material_segments, search_light_scale, texture_surfaces, LightFitOptions,
+    LightScaleOptions, Segment, SurfaceTextureOptions,
 };
 use rhai::{Dynamic, Engine, Map};
 
@@ -68,9 +68,14 @@ fn divide(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts
 
 fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<Map> {
     let mut o = LightScaleOptions::default();
+    let mut split = LightFitOptions::default();
+    let mut split_spp = 0u32;
     for (k, v) in opts {
         let what = "light_scale_search";
         match k.as_str() {
+            "split_spp" => split_spp = option_number(what, k, v)?.max(0.0) as u32,
+            "split_downsample" => split.downsample = option_number(what, k, v)?.max(1.0) as usize,
+            "tint_prior" => split.tint_prior = option_number(what, k, v)?.max(0.0) as f32,
             "range" => {
                 let r =
                     v.clone().into_array().map_err(|_| Error::Invalid(format!("{what}: 'range' is [low, high]")))?;
@@ -89,10 +94,15 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             }
             other => {
                 return Err(Error::Invalid(format!(
-                    "{what}: unknown option '{other}' (range, steps, rounds, spp, downsample, per_channel, extend, resolution)"
+                    "{what}: unknown option '{other}' (range, steps, rounds, spp, downsample, per_channel, extend, \
+                     resolution, split_spp, split_downsample, tint_prior)"
                 )))
             }
         }
+    }
+    if split_spp > 0 {
+        split.spp = split_spp;
+        o.split = Some(split);
     }
     let (photo, segs) = segments("light_scale_search", scene, photo, map)?;
     let found = on_backend(run, "light_scale_search", |b| search_light_scale(b, &mut scene.0, &photo, &segs, &o))?;
