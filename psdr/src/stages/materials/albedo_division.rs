@@ -13,7 +13,10 @@
 //! transport and the division are per channel), so one render scores three factors at once, one per channel:
 //! a log grid over a range first, then per channel the grid goes on past an end while its best factor is
 //! there, and the interval beside its best is halved until the best's neighbours are within `resolution`;
-//! the choice is the parabola through the best and its neighbours. Albedos are clamped to 0.01..0.95, so a
+//! the choice is the parabola through the best and its neighbours. With `LightScaleOptions::split` each factor
+//! also refits how the light divides between the lamps (it depends on the scale through the bounced light), so
+//! the lights' level after a factor is the refit's, near but not exactly the factor times the start's.
+//! Albedos are clamped to 0.01..0.95, so a
 //! scale that would need brighter surfaces shows up as a worse fit, not a wrong albedo.
 //! Both leave out the pixels where the photo is clipped (`vision::unclipped`), and render on the run's backend
 //! (a GPU renders the division's many full-size images far faster than the CPU).
