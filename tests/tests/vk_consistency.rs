@@ -244,6 +244,7 @@ fn light_scale_search_on_the_device_matches_the_cpu() {
         resolution: 1.19,
         // The lights' split refitted at each factor: the unit renders and their fit on each backend too.
         split: Some(LightFitOptions { spp: 16, downsample: 4, ..Default::default() }),
+        split_rounds: 1,
     };
     let (mut on_cpu, mut on_vk) = (start.clone(), start);
     let a = search_light_scale(&mut CpuBackend, &mut on_cpu, &photo.radiance, &segments, &opts).unwrap();

@@ -74,6 +74,7 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
         let what = "light_scale_search";
         match k.as_str() {
             "split_spp" => split_spp = option_number(what, k, v)?.max(0.0) as u32,
+            "split_rounds" => o.split_rounds = option_number(what, k, v)?.max(0.0) as usize,
             "split_downsample" => split.downsample = option_number(what, k, v)?.max(1.0) as usize,
             "tint_prior" => split.tint_prior = option_number(what, k, v)?.max(0.0) as f32,
             "range" => {
@@ -95,7 +96,7 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             other => {
                 return Err(Error::Invalid(format!(
                     "{what}: unknown option '{other}' (range, steps, rounds, spp, downsample, per_channel, extend, \
-                     resolution, split_spp, split_downsample, tint_prior)"
+                     resolution, split_spp, split_rounds, split_downsample, tint_prior)"
                 )))
             }
         }

@@ -30,7 +30,14 @@ impl FreeBlock {
 
     /// Adds a pixel: its photo value and the lights' unit renders there.
     pub(crate) fn add(&mut self, value: f64, unit: &[f64]) {
-        add_pixel(&mut self.gram, &mut self.rhs, &mut self.energy, value, unit);
+        let n = unit.len();
+        for i in 0..n {
+            self.rhs[i] += value * unit[i];
+            for j in 0..n {
+                self.gram[i * n + j] += unit[i] * unit[j];
+            }
+        }
+        self.energy += value * value;
     }
 
     /// The factor that fits this block best for radiances `x`, and x' G x (None where the lights do not reach
@@ -153,17 +160,6 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 fn quadratic(g: &[f64], x: &[f64]) -> f64 {
     let n = x.len();
     (0..n).map(|i| x[i] * dot(&g[i * n..(i + 1) * n], x)).sum()
-}
-
-fn add_pixel(gram: &mut [f64], rhs: &mut [f64], energy: &mut f64, value: f64, unit: &[f64]) {
-    let n = unit.len();
-    for i in 0..n {
-        rhs[i] += value * unit[i];
-        for j in 0..n {
-            gram[i * n + j] += unit[i] * unit[j];
-        }
-    }
-    *energy += value * value;
 }
 
 #[cfg(test)]

@@ -28,11 +28,6 @@ use crate::scene::{Color, Scene};
 use crate::stages::{fit_lights, LightFitOptions};
 use glam::Vec3;
 
-/// Division rounds after the split is refitted at a factor (`LightScaleOptions::split`). The refit needs the
-/// albedos divided at that factor first (`rounds`: with one round there the known-geometry room's dimmer light
-/// came out at a quarter of its red); after it, one round (the worst albedo 1.2 % off; three, 1.7 %).
-const SPLIT_DIVISION_ROUNDS: usize = 1;
-
 /// A homogeneous material and the photo's pixels that show it (weights 0..1).
 #[derive(Clone, Debug)]
 pub struct Segment {
@@ -246,6 +241,10 @@ pub struct LightScaleOptions {
     /// right at the right albedos (the known-geometry room's free fit, the truth's albedos times 0.8, put its
     /// dimmer light's red at 9.1 for 4.0; at the true albedos 3.96).
     pub split: Option<LightFitOptions>,
+    /// Division rounds after the split is refitted. The refit needs the albedos divided at the factor first
+    /// (`rounds`: with one round there the known-geometry room's dimmer light came out at a quarter of its
+    /// red); after it, one round left the worst albedo 1.2 % off, three 1.7 %.
+    pub split_rounds: usize,
 }
 
 impl Default for LightScaleOptions {
@@ -260,6 +259,7 @@ impl Default for LightScaleOptions {
             extend: 0,
             resolution: 1.19,
             split: None,
+            split_rounds: 1,
         }
     }
 }
@@ -365,7 +365,7 @@ impl ScaleScoring<'_> {
         let found = fit_lights(backend, scene, &names, self.photo, &masks, &keep_all)?;
         let radiances: Vec<Vec3> = found.radiance.iter().map(|r| Vec3::from(*r).max(Vec3::splat(1e-6))).collect();
         self.set(scene, &radiances);
-        divide_albedos(backend, scene, self.photo, segments, SPLIT_DIVISION_ROUNDS, opts.spp)
+        divide_albedos(backend, scene, self.photo, segments, opts.split_rounds, opts.spp)
     }
 
     /// The albedos (and lights, started where the caller left them at `f`) divided anew, and the score.
