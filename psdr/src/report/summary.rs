@@ -1,8 +1,8 @@
 //! The top of `report.html`: the photo, the final render and their difference side by side, the evaluation
 //! against a truth when the run had one (`--set truth=...`), the fitted emitters (lights, windows) with
-//! their radiances, the lights each fit removed (`lights_removed` in result.json), and the camera's side of the
-//! photo: its exposure and white balance, which psdr absorbs into the lights (the light-scale search's factor
-//! per channel), and the share of clipped pixels the photometric fits left out.
+//! their radiances, the lights each fit removed or the placement merged (`lights_removed` in result.json), and
+//! the camera's side of the photo: its exposure and white balance, which psdr absorbs into the lights (the
+//! light-scale search's factor per channel), and the share of clipped pixels the photometric fits left out.
 
 use super::html::ReportImage;
 use crate::base::Image;
@@ -86,7 +86,7 @@ pub fn build_summary(out: &Path, photo: &Path, render: &Path, scene: &Scene, rec
             })
             .collect();
         summary.tables.push(SummaryTable {
-            title: "Lights the fit removed (backward elimination)".into(),
+            title: "Lights the fit removed (backward elimination; merged into a neighbour)".into(),
             header: ["removed", "of candidates", "error with all", "error with the rest"].map(String::from).to_vec(),
             rows,
         });

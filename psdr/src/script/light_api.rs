@@ -111,12 +111,17 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
     if !removed.is_empty() {
         let entry = serde_json::json!({ "removed": removed, "candidates": f.names.len(),
                                         "relative_rms_all": f.relative_rms_all, "relative_rms_kept": f.relative_rms });
-        match run.recorded.entry("lights_removed").or_insert_with(|| serde_json::json!([])) {
-            serde_json::Value::Array(list) => list.push(entry),
-            other => *other = serde_json::json!([entry]),
-        }
+        push_removed(&mut run.recorded, entry);
     }
     Ok(out)
+}
+
+/// Appends one entry to `lights_removed` (every fit or merge that removed lights, for the report's light list).
+fn push_removed(recorded: &mut serde_json::Map<String, serde_json::Value>, entry: serde_json::Value) {
+    match recorded.entry("lights_removed").or_insert_with(|| serde_json::json!([])) {
+        serde_json::Value::Array(list) => list.push(entry),
+        other => *other = serde_json::json!([entry]),
+    }
 }
 
 /// `ceiling_lights_init(s, obs)`: the ceiling lights the photo shows, as area lights where their pixels are
@@ -167,6 +172,7 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
             "step" => o.step = n as f32,
             "min_step" => o.min_step = n as f32,
             "size_factor" => o.size_factor = n as f32,
+            "merge" => o.merge_threshold = n.max(0.0) as f32,
             "min_size" => o.size_range.0 = n as f32,
             "max_size" => o.size_range.1 = n as f32,
             "spp" => o.render.spp = n.max(1.0) as u32,
@@ -174,8 +180,8 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
             "tint_prior" => o.render.tint_prior = n.max(0.0) as f32,
             other => {
                 return Err(Error::Invalid(format!(
-                    "place_lights: unknown option '{other}' (step, min_step, size_factor, min_size, max_size, spp, \
-                     downsample, tint_prior, segments, white)"
+                    "place_lights: unknown option '{other}' (step, min_step, size_factor, merge, min_size, max_size, \
+                     spp, downsample, tint_prior, segments, white)"
                 )))
             }
         }
@@ -185,7 +191,16 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
     let placed =
         on_backend(run, "place_lights", |b| refine_light_placement(b, &mut scene.0, &img.data, &segments, &o))?;
     let v = serde_json::to_value(&placed).map_err(|e| Error::Invalid(e.to_string()))?;
-    run.borrow_mut().recorded.insert("light_placement".into(), v.clone());
+    let mut run = run.borrow_mut();
+    run.recorded.insert("light_placement".into(), v.clone());
+    // A merged light leaves the scene like a removed one: it goes in the report's list with what took it.
+    for (i, m) in placed.merged.iter().enumerate() {
+        let entry = serde_json::json!({ "removed": [format!("{} (merged into {})", m.removed, m.into)],
+                                        "candidates": placed.names.len() + placed.merged.len() - i,
+                                        "relative_rms_all": m.relative_rms_before,
+                                        "relative_rms_kept": m.relative_rms_after });
+        push_removed(&mut run.recorded, entry);
+    }
     rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
 }
 

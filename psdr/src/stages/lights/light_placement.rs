@@ -3,7 +3,7 @@
 //! then absorb. A pattern search moves each light in its own plane (its local x and y: along the ceiling for a
 //! ceiling light, along the wall for a window) and grows or shrinks it, keeping a move when the non-negative
 //! least-squares fit of all lights' unit renders to the photo (`light_fit`) gets better; the step halves when no
-//! move helps, down to `min_step`. Rendering is linear in radiance, so each trial costs one unit render of the
+//! move helps, down to `min_step`. Before that, two lights side by side may become one (`merge_neighbours`). Rendering is linear in radiance, so each trial costs one unit render of the
 //! moved light; trials share one seed, so their noise is common and cancels in the comparison. Lights stay
 //! inside the room's box and within `size_range` of their start. A window the photo shows stays where its
 //! pixels put it (`is_visible_window`): its own pixels are clipped and left out of the fit, so nothing held it
@@ -28,6 +28,9 @@ pub struct LightPlacementOptions {
     /// ...within this range of its start (a light shrunk to a point lights the ceiling next to it with
     /// fireflies; one grown past its cell is two lights).
     pub size_range: (f32, f32),
+    /// Two lights side by side in one plane become one at their power-weighted centre when that raises the
+    /// fit's relative error by less than this (`fit_lights`' removal threshold; 0: never).
+    pub merge_threshold: f32,
     /// The unit renders: samples per pixel, downsampling, path length. They are made at the size the fit
     /// compares (`light_fit::unit_render`: `spp` per reduced pixel, not per photo pixel).
     pub render: LightFitOptions,
@@ -40,6 +43,7 @@ impl Default for LightPlacementOptions {
             min_step: 0.1,
             size_factor: 1.25,
             size_range: (0.5, 2.0),
+            merge_threshold: 0.0,
             render: LightFitOptions { spp: 64, ..Default::default() },
         }
     }
@@ -85,6 +89,17 @@ pub struct LightPlacement {
     pub relative_rms_before: f32,
     pub relative_rms_after: f32,
     pub unit_renders: usize,
+    /// Lights merged into another (removed, kept) and the relative error with both and after the merge.
+    pub merged: Vec<Merge>,
+}
+
+/// One light merged into its neighbour.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Merge {
+    pub removed: String,
+    pub into: String,
+    pub relative_rms_before: f32,
+    pub relative_rms_after: f32,
 }
 
 /// Moves and sizes every emitter of `scene` (see the module) and sets their radiances to the final fit; with
@@ -119,19 +134,27 @@ pub fn refine_light_placement(
         .tint_prior(ro.tint_prior);
     let norm = target.norm();
     let rel = |err: f64| (err / norm).sqrt() as f32;
-    let all: Vec<usize> = (0..lights.len()).collect();
     let mut render = |scene: &Scene, li: usize| unit_render(backend, scene, li, ro);
     let progress = crate::progress::activity(format!("placing {} lights, step {:.2} m", lights.len(), opts.step), None);
-    let mut basis: Vec<Vec<f32>> = lights.iter().map(|&i| render(scene, i)).collect::<Result<_>>()?;
-    let mut renders = basis.len();
-    let (mut rad, mut err) = nnls_fit(&basis, &target, &all);
+    let basis: Vec<Vec<f32>> = lights.iter().map(|&i| render(scene, i)).collect::<Result<_>>()?;
+    let active: Vec<usize> = (0..lights.len()).collect();
+    let (rad, err) = nnls_fit(&basis, &target, &active);
+    let mut fit = Fit { basis, rad, err, active };
+    let mut renders = lights.len();
     let before = rel(err);
+    let mut merged = vec![];
+    if opts.merge_threshold > 0.0 {
+        let trials;
+        (merged, trials) =
+            merge_neighbours(scene, &lights, &mut fit, &mut render, &target, &rel, opts.merge_threshold)?;
+        renders += trials;
+    }
     let (mut step, mut passes) = (opts.step, 0);
     while step >= opts.min_step && !lights.is_empty() {
         let mut improved = false;
         passes += 1;
         for (k, &li) in lights.iter().enumerate() {
-            if is_visible_light(&scene.objects[li].name) {
+            if is_visible_light(&scene.objects[li].name) || !fit.active.contains(&k) {
                 continue;
             }
             let pose = scene.objects[li].pose;
@@ -159,17 +182,17 @@ pub fn refine_light_placement(
                 let img = render(scene, li)?;
                 renders += 1;
                 progress.set(renders, Some(format!("unit renders, step {step:.2} m")));
-                let mut b = basis.clone();
+                let mut b = fit.basis.clone();
                 b[k] = img;
-                let (r, e) = nnls_fit(&b, &target, &all);
-                if e < best.as_ref().map_or(err, |x| x.err) {
+                let (r, e) = nnls_fit(&b, &target, &fit.active);
+                if e < best.as_ref().map_or(fit.err, |x| x.err) {
                     best = Some(Trial { translation: t, scale: s, image: b.swap_remove(k), radiance: r, err: e });
                 }
             }
             match best {
                 Some(b) => {
                     (scene.objects[li].pose.translation, scene.objects[li].pose.scale) = (b.translation, b.scale);
-                    (basis[k], rad, err) = (b.image, b.radiance, b.err);
+                    (fit.basis[k], fit.rad, fit.err) = (b.image, b.radiance, b.err);
                     improved = true;
                 }
                 None => scene.objects[li].pose = pose,
@@ -180,17 +203,141 @@ pub fn refine_light_placement(
             (step, passes) = (step / 2.0, 0);
         }
     }
-    for (k, &li) in lights.iter().enumerate() {
-        if let Some(e) = scene.objects[li].emitter.as_mut() {
-            e.radiance = Vec3::from(rad[k]).max(Vec3::splat(1e-6));
+    for &k in &fit.active {
+        if let Some(e) = scene.objects[lights[k]].emitter.as_mut() {
+            e.radiance = Vec3::from(fit.rad[k]).max(Vec3::splat(1e-6));
         }
     }
-    Ok(LightPlacement {
-        names: lights.iter().map(|&i| scene.objects[i].name.clone()).collect(),
-        moved_m: lights.iter().zip(&start).map(|(&i, s)| (scene.objects[i].pose.translation - s.0).length()).collect(),
-        size_ratio: lights.iter().zip(&start).map(|(&i, s)| scene.objects[i].pose.scale.x / s.1.x).collect(),
+    let kept = &fit.active;
+    let result = LightPlacement {
+        names: kept.iter().map(|&k| scene.objects[lights[k]].name.clone()).collect(),
+        moved_m: kept.iter().map(|&k| (scene.objects[lights[k]].pose.translation - start[k].0).length()).collect(),
+        size_ratio: kept.iter().map(|&k| scene.objects[lights[k]].pose.scale.x / start[k].1.x).collect(),
         relative_rms_before: before,
-        relative_rms_after: rel(err),
+        relative_rms_after: rel(fit.err),
         unit_renders: renders,
-    })
+        merged,
+    };
+    let gone: Vec<String> = result.merged.iter().map(|m| m.removed.clone()).collect();
+    scene.objects.retain(|o| !gone.contains(&o.name));
+    Ok(result)
+}
+
+/// The lights' unit renders, the radiances of the fit and its squared error, over the lights still in it.
+struct Fit {
+    basis: Vec<Vec<f32>>,
+    rad: Vec<[f32; 3]>,
+    err: f64,
+    active: Vec<usize>,
+}
+
+/// A merge tried: light `drop` removed, light `keep` moved to `centre` (its unit render `image` there), and the
+/// fit that gives.
+struct MergeTrial {
+    keep: usize,
+    drop: usize,
+    centre: Vec3,
+    image: Vec<f32>,
+    radiance: Vec<[f32; 3]>,
+    err: f64,
+}
+
+/// The area of an object's triangles in the world.
+fn world_area(o: &crate::scene::Object) -> f32 {
+    let m = o.pose.matrix();
+    let mut area = 0.0;
+    for p in &o.parts {
+        for t in &p.indices {
+            let [a, b, c] = t.map(|i| m.transform_point3(p.positions[i as usize]));
+            area += 0.5 * (b - a).cross(c - a).length();
+        }
+    }
+    area
+}
+
+/// The largest distance of an object's vertices from its origin, in the world.
+fn reach(o: &crate::scene::Object) -> f32 {
+    let m = o.pose.matrix();
+    o.parts
+        .iter()
+        .flat_map(|p| &p.positions)
+        .map(|v| (m.transform_point3(*v) - o.pose.translation).length())
+        .fold(0.0, f32::max)
+}
+
+/// A real light between two grid cells is fitted as two candidates, one on each side (the known-geometry
+/// test's brighter light, 0.6 m wide, as two panels 1 m apart straddling it), and the pattern search moves
+/// each a step at a time without bringing them together. So two lights in one plane whose panels (nearly)
+/// touch are tried as one: the brighter moved to their centre weighted by power (radiance times area), the
+/// other removed; kept when the fit's relative error rises by less than `threshold` (the rule by which
+/// `fit_lights` removes lights). The best such merge first, until none is kept. Returns the merges and the
+/// unit renders they took.
+fn merge_neighbours<R, E>(
+    scene: &mut Scene,
+    lights: &[usize],
+    fit: &mut Fit,
+    render: &mut R,
+    target: &FitTarget,
+    rel: &E,
+    threshold: f32,
+) -> Result<(Vec<Merge>, usize)>
+where
+    R: FnMut(&Scene, usize) -> Result<Vec<f32>>,
+    E: Fn(f64) -> f32,
+{
+    let (mut merges, mut renders) = (vec![], 0);
+    loop {
+        let movable: Vec<usize> =
+            fit.active.iter().copied().filter(|&k| !is_visible_light(&scene.objects[lights[k]].name)).collect();
+        let power: Vec<f32> = (0..lights.len())
+            .map(|k| {
+                let r = fit.rad[k];
+                world_area(&scene.objects[lights[k]]) * (0.2126 * r[0] + 0.7152 * r[1] + 0.0722 * r[2]).max(0.0)
+            })
+            .collect();
+        let mut best: Option<MergeTrial> = None;
+        for (x, &a) in movable.iter().enumerate() {
+            for &b in &movable[x + 1..] {
+                let (oa, ob) = (&scene.objects[lights[a]], &scene.objects[lights[b]]);
+                let normal = oa.pose.rotation * Vec3::Z;
+                let (ta, tb) = (oa.pose.translation, ob.pose.translation);
+                let same_plane =
+                    oa.pose.rotation.dot(ob.pose.rotation).abs() > 0.9999 && (tb - ta).dot(normal).abs() < 0.01;
+                if !same_plane || (tb - ta).length() > 1.2 * (reach(oa) + reach(ob)) {
+                    continue;
+                }
+                let (pa, pb) = (power[a], power[b]);
+                if pa + pb <= 0.0 {
+                    continue;
+                }
+                // The brighter one stays, at the centre.
+                let (keep, drop) = if pa >= pb { (a, b) } else { (b, a) };
+                let centre = (ta * pa + tb * pb) / (pa + pb);
+                let was = scene.objects[lights[keep]].pose.translation;
+                scene.objects[lights[keep]].pose.translation = centre;
+                let img = render(scene, lights[keep]);
+                renders += 1;
+                scene.objects[lights[keep]].pose.translation = was;
+                let mut basis = fit.basis.clone();
+                basis[keep] = img?;
+                let rest: Vec<usize> = fit.active.iter().copied().filter(|&k| k != drop).collect();
+                let (r, e) = nnls_fit(&basis, target, &rest);
+                if rel(e) - rel(fit.err) < threshold && best.as_ref().is_none_or(|b| e < b.err) {
+                    best = Some(MergeTrial { keep, drop, centre, image: basis.swap_remove(keep), radiance: r, err: e });
+                }
+            }
+        }
+        let Some(MergeTrial { keep, drop, centre, image, radiance: r, err: e }) = best else { break };
+        merges.push(Merge {
+            removed: scene.objects[lights[drop]].name.clone(),
+            into: scene.objects[lights[keep]].name.clone(),
+            relative_rms_before: rel(fit.err),
+            relative_rms_after: rel(e),
+        });
+        scene.objects[lights[keep]].pose.translation = centre;
+        fit.basis[keep] = image;
+        (fit.rad, fit.err) = (r, e);
+        fit.active.retain(|&k| k != drop);
+    }
+    Ok((merges, renders))
 }
