@@ -3,8 +3,9 @@
 //! then absorb. A pattern search moves each light in its own plane (its local x and y: along the ceiling for a
 //! ceiling light, along the wall for a window) and grows or shrinks it, keeping a move when the non-negative
 //! least-squares fit of all lights' unit renders to the photo (`light_fit`) gets better; the step halves when no
-//! move helps, down to `min_step`. Before that, two lights side by side may become one (`merge_neighbours`). Rendering is linear in radiance, so each trial costs one unit render of the
-//! moved light; trials share one seed, so their noise is common and cancels in the comparison. Lights stay
+//! move helps, down to `min_step`. Before that, two lights side by side may become one (`merge_neighbours`).
+//! Rendering is linear in radiance, so each trial costs one unit render of the moved light; trials share one
+//! seed, so their noise is common and cancels in the comparison. Lights stay
 //! inside the room's box and within `size_range` of their start. A window the photo shows stays where its
 //! pixels put it (`is_visible_window`): its own pixels are clipped and left out of the fit, so nothing held it
 //! (real room01's moved 10 cm up, its render a band of white over the wall above it).
@@ -13,10 +14,16 @@ use super::is_visible_light;
 use super::light_fit::{nnls_fit, unit_render, FitTarget, LightFitOptions};
 use crate::backend::Backend;
 use crate::error::{Error, Result};
+use crate::render::scene_data::luminance;
 use crate::scene::Scene;
 use glam::Vec3;
 
 const MAX_PASSES: usize = 3;
+
+/// Two lights are neighbours (`merge_neighbours`) when their centres lie within this many times the sum of
+/// their half-diagonals: the grid's side-by-side candidates (1.5 m apart, half-diagonals 0.8 m) are, diagonal
+/// ones (2.0 m apart) are not.
+const NEIGHBOUR_REACH: f32 = 1.2;
 
 #[derive(Clone, Debug)]
 pub struct LightPlacementOptions {
@@ -29,7 +36,7 @@ pub struct LightPlacementOptions {
     /// fireflies; one grown past its cell is two lights).
     pub size_range: (f32, f32),
     /// Two lights side by side in one plane become one at their power-weighted centre when that raises the
-    /// fit's relative error by less than this (`fit_lights`' removal threshold; 0: never).
+    /// fit's relative error by less than this (`merge_neighbours`; 0: never).
     pub merge_threshold: f32,
     /// The unit renders: samples per pixel, downsampling, path length. They are made at the size the fit
     /// compares (`light_fit::unit_render`: `spp` per reduced pixel, not per photo pixel).
@@ -269,9 +276,10 @@ fn reach(o: &crate::scene::Object) -> f32 {
 /// test's brighter light, 0.6 m wide, as two panels 1 m apart straddling it), and the pattern search moves
 /// each a step at a time without bringing them together. So two lights in one plane whose panels (nearly)
 /// touch are tried as one: the brighter moved to their centre weighted by power (radiance times area), the
-/// other removed; kept when the fit's relative error rises by less than `threshold` (the rule by which
-/// `fit_lights` removes lights). The best such merge first, until none is kept. Returns the merges and the
-/// unit renders they took.
+/// other removed; kept when the fit's relative error rises by less than `threshold` (the form of
+/// `fit_lights`' removal rule, with a threshold of its own: a merge that costs as much as a removal joins two
+/// real lights). The best such merge first, until none is kept. Returns the merges and the unit renders they
+/// took.
 fn merge_neighbours<R, E>(
     scene: &mut Scene,
     lights: &[usize],
@@ -292,7 +300,7 @@ where
         let power: Vec<f32> = (0..lights.len())
             .map(|k| {
                 let r = fit.rad[k];
-                world_area(&scene.objects[lights[k]]) * (0.2126 * r[0] + 0.7152 * r[1] + 0.0722 * r[2]).max(0.0)
+                world_area(&scene.objects[lights[k]]) * luminance(Vec3::from(r)).max(0.0)
             })
             .collect();
         let mut best: Option<MergeTrial> = None;
@@ -303,7 +311,7 @@ where
                 let (ta, tb) = (oa.pose.translation, ob.pose.translation);
                 let same_plane =
                     oa.pose.rotation.dot(ob.pose.rotation).abs() > 0.9999 && (tb - ta).dot(normal).abs() < 0.01;
-                if !same_plane || (tb - ta).length() > 1.2 * (reach(oa) + reach(ob)) {
+                if !same_plane || (tb - ta).length() > NEIGHBOUR_REACH * (reach(oa) + reach(ob)) {
                     continue;
                 }
                 let (pa, pb) = (power[a], power[b]);
