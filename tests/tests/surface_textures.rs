@@ -81,7 +81,8 @@ fn textured_floor_and_walls_get_their_library_materials() {
     // contrast comes out 30 % above the photo's, a bias of the descriptor recorded in the closing notes).
     let mut opts = SurfaceTextureOptions { spp: 128, ..Default::default() };
     opts.graph_fit.iters = 0;
-    let found = texture_surfaces(&mut CpuBackend, &mut start, &frame.radiance, &segments, &library, &opts).unwrap();
+    let found =
+        texture_surfaces(&mut CpuBackend, &mut start, &frame.radiance, None, &segments, &library, &opts).unwrap();
     eprintln!("texture_surfaces: {:.1} s (with the photo's render)", t.elapsed().as_secs_f32());
     eprintln!("{}", serde_json::to_string_pretty(&found).unwrap());
     for (m, name, scale, rotation) in wear {
@@ -132,4 +133,75 @@ fn textured_floor_and_walls_get_their_library_materials() {
     );
     eprintln!("RMSE at 1/8 size: homogeneous {e0:.4}, textured {e1:.4}");
     assert!(e1 < e0 + 0.05, "textured {e1} vs homogeneous {e0}");
+}
+
+/// A brick wall whose courses are 3 pixels high at the working size (its mortar averaged away there) is
+/// recognised from the photo at twice that size (`texture_surfaces`' detail photo, as room.rhai passes it at
+/// `texture_size`): the crops are cut from the detail photo and seen through uv grids cast at its pixels, so
+/// the scale found is the wall's own (it would be off by the factor 2 if the grid were cast at working pixels).
+/// (From the working photo alone the search, written, found brick_wall at 1.33 times the wall's scale.)
+#[test]
+fn a_brick_wall_is_recognised_from_the_photo_at_twice_the_working_size() {
+    let (mut truth, _) = truth_room();
+    let library = library_textures(128).unwrap();
+    let (name, scale) = ("brick_wall", 1.0f32);
+    let tex = library.iter().find(|t| t.name == name).unwrap();
+    truth.textures.push(Texture {
+        path: None,
+        width: tex.size as u32,
+        height: tex.size as u32,
+        channels: 3,
+        texels: tex.albedo.clone(),
+    });
+    let mat = truth.materials.iter_mut().find(|x| x.name == "wall").unwrap();
+    mat.albedo = Color::Texture(truth.textures.len() - 1);
+    mat.uv_transform = UvTransform { scale: Vec2::splat(scale), rotation_deg: 0.0, offset: Vec2::ZERO };
+    let (w, h) = (256usize, 192usize);
+    let detail = {
+        let mut s = truth.clone();
+        (s.camera.width, s.camera.height) = (2 * w as u32, 2 * h as u32);
+        let data = render(&s, 32);
+        Image { width: 2 * w, height: 2 * h, channels: 3, data }
+    };
+    // The working photo: each pixel the mean of its 2x2 detail pixels (the working size's area average).
+    let photo: Vec<f32> = (0..w * h * 3)
+        .map(|i| {
+            let (p, c) = (i / 3, i % 3);
+            let (x, y) = (p % w, p / w);
+            let at = |dx: usize, dy: usize| detail.data[((2 * y + dy) * 2 * w + 2 * x + dx) * 3 + c];
+            (at(0, 0) + at(1, 0) + at(0, 1) + at(1, 1)) / 4.0
+        })
+        .collect();
+    (truth.camera.width, truth.camera.height) = (w as u32, h as u32);
+    let ids = {
+        let mut s = truth.clone();
+        s.settings.spp = 4;
+        render_cpu(&SceneData::build(&s).unwrap(), &s.settings, &|_, _| {}).object_id
+    };
+    let mut start = truth.clone();
+    let n = (tex.size * tex.size) as f32;
+    let mean = Vec3::from_array(std::array::from_fn(|c| tex.albedo.iter().skip(c).step_by(3).sum::<f32>() / n));
+    let mat = start.materials.iter_mut().find(|x| x.name == "wall").unwrap();
+    (mat.albedo, mat.uv_transform) = (Color::Constant(mean), UvTransform::default());
+    start.textures.clear();
+    let wall = start.materials.iter().position(|m| m.name == "wall").unwrap();
+    let mask = ids
+        .iter()
+        .map(|&o| f32::from(u8::from(start.objects.get(o as usize).is_some_and(|x| x.parts[0].material == wall))))
+        .collect();
+    let segments = [Segment { material: wall, mask }];
+    let mut opts = SurfaceTextureOptions { spp: 32, ..Default::default() };
+    opts.graph_fit.iters = 0;
+    let found =
+        texture_surfaces(&mut CpuBackend, &mut start, &photo, Some(&detail), &segments, &library, &opts).unwrap();
+    let s = &found[0];
+    eprintln!("{}", serde_json::to_string_pretty(s).unwrap());
+    let [x, y, cw, ch] = s.crop.unwrap();
+    assert_eq!(s.detail_crop, Some([2 * x, 2 * y, 2 * cw, 2 * ch]), "the detail crop is the working crop at 2x");
+    assert!(2 * cw <= opts.max_crop && 2 * ch <= opts.max_crop, "{s:?}");
+    let chosen = s.chosen.as_ref().unwrap_or_else(|| panic!("nothing chosen: {}", s.decision));
+    assert_eq!(chosen.name, name, "{}", s.decision);
+    let ratio = chosen.scale / scale;
+    assert!((0.8..=1.25).contains(&ratio), "scale {} vs {scale}", chosen.scale);
+    assert!(chosen.rotation_deg.rem_euclid(180.0) < 1e-3, "rotation {}", chosen.rotation_deg);
 }

@@ -6,7 +6,7 @@
 //! `segments` maps a homogeneous material's name to the mask of the photo's pixels that show it. Both change
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
 //! `texture_surfaces(s, photo, segments, #{spp, top_k, colour_weight, min_contrast, min_crop, max_crop,
-//! samples, library_size, graph_iters, graph_lr, embedding, embedding_weight})` gives the segments that show a
+//! samples, library_size, graph_iters, graph_lr, embedding, embedding_weight, detail})` gives the segments that show a
 //! texture (ranked with an ONNX image encoder's similarity too when `embedding` names one) a procedural material
 //! from the library, its graph fitted to the crop (`stages::surface_textures`, `stages::graph_fit`), recorded
 //! as `surface_textures` (crops, top matches, decisions, the graph fits).
@@ -142,7 +142,15 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
     let what = "texture_surfaces";
     let mut o = SurfaceTextureOptions::default();
     let mut library_size = 128usize;
+    let mut detail: Option<Image> = None;
     for (k, v) in opts {
+        if k == "detail" {
+            let t = v.clone().try_cast::<Tensor>().ok_or_else(|| {
+                Error::Invalid(format!("{what}: 'detail' is an image (obs.photo_detail(working, long_side))"))
+            })?;
+            detail = Some(t.value().clone());
+            continue;
+        }
         if k == "embedding" {
             let path = v.clone().into_string().map_err(|_| Error::Invalid(format!("{what}: 'embedding' is a path")))?;
             o.embedding = (!path.is_empty()).then(|| std::path::PathBuf::from(path));
@@ -165,14 +173,16 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
             other => {
                 return Err(Error::Invalid(format!(
                     "{what}: unknown option '{other}' (spp, top_k, colour_weight, min_contrast, min_crop, max_crop, \
-                     samples, contrast_tolerance, library_size, graph_iters, graph_lr, embedding, embedding_weight)"
+                     samples, contrast_tolerance, library_size, graph_iters, graph_lr, embedding, embedding_weight, \
+                     detail)"
                 )))
             }
         }
     }
     let (photo, segs) = segments(what, scene, photo, map)?;
     let library = library_textures(library_size)?;
-    let found = on_backend(run, what, |b| texture_surfaces(b, &mut scene.0, &photo, &segs, &library, &o))?;
+    let found =
+        on_backend(run, what, |b| texture_surfaces(b, &mut scene.0, &photo, detail.as_ref(), &segs, &library, &o))?;
     let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
     run.borrow_mut().recorded.insert("surface_textures".into(), v.clone());
     rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))

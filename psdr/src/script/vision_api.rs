@@ -1,7 +1,9 @@
 //! Observations and the room stage in scripts: `observe(PHOTO)`, `obs.photo`, `obs.unclipped` (1 where the
 //! photo is not clipped), `obs.depth`, `obs.fov`, `obs.width`, `obs.height`, `obs.class_mask(class)`,
-//! `obs.classes()`, `obs.resized(long_side)` (the working size), `scene.match_photo(obs)` (the camera renders that photo's size and field of view), and
-//! `room_init(obs)` (the room box and camera as a scene).
+//! `obs.classes()`, `obs.resized(long_side)` (the working size), `obs.photo_detail(working, long_side)` (the
+//! photo over the working observations' view at up to `long_side` pixels: the texture search's crops),
+//! `scene.match_photo(obs)` (the camera renders that photo's size and field of view), and `room_init(obs)` (the
+//! room box and camera as a scene).
 
 use super::api_support::{rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
@@ -194,6 +196,12 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
             );
         }
         Ok(ObsHandle(Rc::new(obs)))
+    });
+    engine.register_fn("photo_detail", |o: &mut ObsHandle, working: ObsHandle, long_side: i64| -> Rr<Tensor> {
+        let n = usize::try_from(long_side)
+            .map_err(|_| rhai_err(Error::Invalid(format!("photo_detail: {long_side} is not a size in pixels"))))?;
+        let size = (working.0.photo.width, working.0.photo.height);
+        Ok(Tensor::constant(o.0.photo_detail(size, n).map_err(rhai_err)?))
     });
     engine.register_fn("match_photo", |s: &mut SceneHandle, o: ObsHandle| -> Rr<()> {
         let fov = o.0.require_fov().map_err(rhai_err)?;

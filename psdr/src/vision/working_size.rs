@@ -167,7 +167,38 @@ pub fn photo_at(photo: &Image, w: usize, h: usize) -> Option<Image> {
     area_average(photo, &Footprint::new(crop, ww, wh), ww, wh).ok()
 }
 
+/// `photo` over the same crop as a working photo of `working` (width, height) made by `resized`, at about
+/// `long_side` pixels on its long side (never more than the crop's own pixels, never fewer than the working
+/// photo's): working pixel (x, y) covers detail pixels (x, y) x k, k = the detail's width over the working
+/// width. The texture search cuts its crops from this: a brick's mortar or a plank's seam that the working
+/// size averages away is still in it.
+pub fn detail_photo(photo: &Image, working: (usize, usize), long_side: usize) -> Result<Image> {
+    let (w, h) = (photo.width, photo.height);
+    let (ww, wh) = working;
+    if ww == 0 || wh == 0 {
+        return Err(Error::Invalid("photo detail: the working size is empty".into()));
+    }
+    let (cw, ch, crop) = working_size(w, h, ww.max(wh));
+    if (cw, ch) != (ww, wh) {
+        return Err(Error::Invalid(format!(
+            "photo detail: {ww}x{wh} is not a working size of the {w}x{h} photo (that is {cw}x{ch})"
+        )));
+    }
+    let long = ww.max(wh) as f64;
+    let k = (long_side as f64 / long).min(crop[2].max(crop[3]) / long).max(1.0);
+    let (dw, dh) = ((ww as f64 * k).round() as usize, (wh as f64 * k).round() as usize);
+    if (dw, dh) == (w, h) && crop == [0.0, 0.0, w as f64, h as f64] {
+        return Ok(photo.clone());
+    }
+    area_average(photo, &Footprint::new(crop, dw, dh), dw, dh)
+}
+
 impl Observations {
+    /// The photo at up to `long_side` pixels over a working photo's view (`detail_photo`).
+    pub fn photo_detail(&self, working: (usize, usize), long_side: usize) -> Result<Image> {
+        detail_photo(&self.photo, working, long_side)
+    }
+
     /// The observations at the working size for `long_side` (see the module); `long_side` 0, or a photo
     /// already at its working size, gives them unchanged.
     pub fn resized(&self, long_side: usize) -> Result<Observations> {
@@ -256,6 +287,41 @@ mod tests {
         // A photo smaller than the working size keeps its size, rounded to multiples of 8.
         assert_eq!(working_size(200, 150, 320).0, 200);
         assert_eq!(working_size(200, 150, 320).1, 152);
+    }
+
+    #[test]
+    fn the_detail_photo_is_the_working_photos_view_at_k_times_its_pixels() {
+        // A 1920x1080 photo (working 320x184: a horizontal crop) of smooth colour and a step: at 640 long the
+        // detail is 2x the working size and each working pixel is the mean of its 2x2 detail pixels, so both
+        // show the same view of the photo.
+        let (w, h) = (1920, 1080);
+        let data: Vec<f32> = (0..w * h)
+            .flat_map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                [x / w as f32, y / h as f32, if x < 700.0 { 0.2 } else { 0.9 }]
+            })
+            .collect();
+        let photo = Image::new(w, h, 3, data).unwrap();
+        let (ww, wh, crop) = working_size(w, h, 320);
+        let working = area_average(&photo, &Footprint::new(crop, ww, wh), ww, wh).unwrap();
+        let detail = detail_photo(&photo, (ww, wh), 640).unwrap();
+        assert_eq!((detail.width, detail.height), (2 * ww, 2 * wh));
+        let mut worst = 0.0f32;
+        for y in 0..wh {
+            for x in 0..ww {
+                for c in 0..3 {
+                    let d = |i: usize, j: usize| detail.data[((2 * y + j) * detail.width + 2 * x + i) * 3 + c];
+                    let mean = (d(0, 0) + d(1, 0) + d(0, 1) + d(1, 1)) / 4.0;
+                    worst = worst.max((mean - working.data[(y * ww + x) * 3 + c]).abs());
+                }
+            }
+        }
+        assert!(worst < 1e-5, "a working pixel differs from its detail pixels' mean by {worst}");
+        // Never more pixels than the photo has; the photo itself where it has the working aspect.
+        let small = Image::new(512, 384, 3, vec![0.5; 512 * 384 * 3]).unwrap();
+        let same = detail_photo(&small, (320, 240), 640).unwrap();
+        assert_eq!((same.width, same.height), (512, 384));
+        assert!(detail_photo(&small, (320, 200), 640).is_err(), "320x200 is not this photo's working size");
     }
 
     #[test]

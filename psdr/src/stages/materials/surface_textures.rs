@@ -2,14 +2,18 @@
 //! material search and the texture-transform search), after the homogeneous fit:
 //!
 //! 1. the crop: the rectangle inside the segment's mask with the largest square in it (cut to at most
-//!    `max_crop` pixels and twice its width a side, centred);
+//!    `max_crop` pixels and twice its width a side, centred), cut from the detail photo when there is one (the
+//!    photo over the working view at more pixels: a brick course is 3 working pixels on a 512x384 photo's
+//!    wall, and its mortar averages away);
 //! 2. the crop as albedo: the photo divided by the shading the fitted lights give there (photo x albedo /
-//!    render, per channel: the render is the fitted homogeneous albedo times that shading);
+//!    render, per channel: the render is the fitted homogeneous albedo times that shading, at the working
+//!    size and resampled onto the detail crop: shading is smooth);
 //! 3. the surface's uv under every crop pixel (`samples` x `samples` rays per pixel against the fitted scene),
 //!    so candidates are compared as the camera sees them, perspective and all, and a chosen scale is the
 //!    surface's own uv transform;
 //! 4. a crop whose luminance varies less than `min_contrast` about its local mean (standard deviation over
-//!    a box blur an eighth of the crop wide: texture, not the smooth shading residue a fit leaves) is flat:
+//!    a box blur an eighth of the crop wide: texture, not the smooth shading residue a fit leaves), judged at
+//!    the working size (the detail photo's grain would add to it), is flat:
 //!    it stays homogeneous. Otherwise the library is searched (`search_materials_on`: texture descriptor, mean colour,
 //!    fineness; scales and rotations) and the best match replaces the homogeneous albedo when it reproduces
 //!    the crop's local contrast closely (|contrast(view) - contrast(crop)| below `contrast_tolerance`, 0.5,
@@ -85,10 +89,15 @@ impl Default for SurfaceTextureOptions {
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct SurfaceTexture {
     pub material: String,
-    /// x, y, width, height of the crop in the photo.
+    /// x, y, width, height of the crop in the (working) photo.
     pub crop: Option<[usize; 4]>,
-    /// Local contrast (see `local_contrast`) of the crop, and of the best match seen through its transform.
+    /// The same crop in the detail photo the search saw (see `texture_surfaces`), when there was one.
+    pub detail_crop: Option<[usize; 4]>,
+    /// Local contrast (see `local_contrast`) of the crop at the working size: whether the surface is textured.
     pub contrast: f32,
+    /// The same of the crop the search saw (the detail photo's, where there is one) and of the best match seen
+    /// through its transform there: whether the match reproduces it.
+    pub search_contrast: Option<f32>,
     pub match_contrast: Option<f32>,
     /// The best library materials, best first, with their uv transforms.
     pub matches: Vec<MaterialMatch>,
@@ -101,11 +110,16 @@ pub struct SurfaceTexture {
 }
 
 /// Runs steps 1-5 on every segment (see the module) and changes the chosen materials in `scene`; the shading
-/// render runs on `backend`.
+/// render runs on `backend`. `detail`, when given, is the photo over the same view at a higher resolution
+/// (`Observations::photo_detail`): the crops are cut from it (at most `max_crop` of its pixels a side), the
+/// working render's shading resampled onto them, so a texture the working size averages away (a brick wall's
+/// mortar at 3 working pixels a course) is there to be recognised. Masks, the crop's place and the joint
+/// pass's crop pairs stay in working pixels.
 pub fn texture_surfaces(
     backend: &mut dyn Backend,
     scene: &mut Scene,
     photo: &[f32],
+    detail: Option<&Image>,
     segments: &[Segment],
     library: &[LibraryTexture],
     opts: &SurfaceTextureOptions,
@@ -113,6 +127,21 @@ pub fn texture_surfaces(
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     if photo.len() != w * h * 3 {
         return Err(Error::Invalid(format!("texture_surfaces: the photo is not the camera's {w}x{h} RGB")));
+    }
+    let working = Image { width: w, height: h, channels: 3, data: photo.to_vec() };
+    let detail = detail.unwrap_or(&working);
+    if detail.channels != 3 || detail.width < w || detail.height < h {
+        return Err(Error::Invalid(format!(
+            "texture_surfaces: the detail photo is {}x{}x{}, not RGB at least the working {w}x{h}",
+            detail.width, detail.height, detail.channels
+        )));
+    }
+    let k = [detail.width as f32 / w as f32, detail.height as f32 / h as f32];
+    if (k[0] / k[1] - 1.0).abs() > 0.02 {
+        return Err(Error::Invalid(format!(
+            "texture_surfaces: the detail photo's {}x{} is not the working {w}x{h}'s aspect",
+            detail.width, detail.height
+        )));
     }
     let progress = crate::progress::activity(
         format!("textures: the shading at {} spp, then the library searched per segment", opts.spp.max(1)),
@@ -134,7 +163,9 @@ pub fn texture_surfaces(
         let mut entry = SurfaceTexture {
             material: material.name.clone(),
             crop: None,
+            detail_crop: None,
             contrast: 0.0,
+            search_contrast: None,
             match_contrast: None,
             matches: vec![],
             chosen: None,
@@ -160,8 +191,8 @@ pub fn texture_surfaces(
             out.push(entry);
             continue;
         }
-        // At most max_crop a side and twice as long as wide, centred.
-        let side = (2 * r.w.min(r.h)).min(opts.max_crop);
+        // At most max_crop detail pixels a side and twice as long as wide, centred.
+        let side = (2 * r.w.min(r.h)).min((opts.max_crop as f32 / k[0].max(k[1])).floor() as usize).max(1);
         for (pos, len) in [(&mut r.x, &mut r.w), (&mut r.y, &mut r.h)] {
             if *len > side {
                 *pos += (*len - side) / 2;
@@ -169,9 +200,26 @@ pub fn texture_surfaces(
             }
         }
         entry.crop = Some([r.x, r.y, r.w, r.h]);
-        let crop = albedo_crop(photo, &render, albedo, w, [r.x, r.y, r.w, r.h]);
-        entry.contrast = local_contrast(&crop);
-        let Some(grid) = uv_grid(&data, seg.material as u32, [r.x, r.y, r.w, r.h], opts.samples.max(1)) else {
+        let rd = detail_rect([r.x, r.y, r.w, r.h], k, detail);
+        if !std::ptr::eq(detail, &working) {
+            entry.detail_crop = Some(rd);
+        }
+        // The texture gate looks at the working crop: its threshold was set there, and the detail photo's own
+        // noise (a photo's grain, a render's samples) adds contrast a plain wall does not have (real room04's
+        // plain wall: 0.042 working, 0.084 at 1.6x, and stucco chosen).
+        entry.contrast = local_contrast(&albedo_crop(
+            &working,
+            &render,
+            albedo,
+            w,
+            [r.x, r.y, r.w, r.h],
+            [r.x, r.y, r.w, r.h],
+            [1.0; 2],
+        ));
+        let crop = albedo_crop(detail, &render, albedo, w, [r.x, r.y, r.w, r.h], rd, k);
+        let crop_contrast = local_contrast(&crop);
+        entry.search_contrast = Some(crop_contrast);
+        let Some(grid) = uv_grid(&data, seg.material as u32, rd, k, opts.samples.max(1)) else {
             entry.decision = "the fitted surface under the crop is another or has no uvs: homogeneous".into();
             out.push(entry);
             continue;
@@ -187,24 +235,42 @@ pub fn texture_surfaces(
         let tex = library.iter().find(|t| t.name == best.name).expect("matches come from the library");
         let c = local_contrast(&view_at(tex, best.scale, best.rotation_deg, &grid));
         entry.match_contrast = Some(c);
-        if (c - entry.contrast).abs() < opts.contrast_tolerance * entry.contrast {
+        if (c - crop_contrast).abs() < opts.contrast_tolerance * crop_contrast {
             entry.graph_fit = apply(scene, seg.material, tex, albedo, &best, &grid, &crop, &opts.graph_fit)?;
             entry.decision = format!("{} at scale {:.3}, rotation {}", best.name, best.scale, best.rotation_deg);
             entry.chosen = Some(best);
         } else {
             entry.decision =
-                format!("{} has contrast {c:.3} against the crop's {:.3}: homogeneous", best.name, entry.contrast);
+                format!("{} has contrast {c:.3} against the crop's {crop_contrast:.3}: homogeneous", best.name);
         }
         out.push(entry);
     }
     Ok(out)
 }
 
-/// The crop of photo x albedo / render (the photo's albedo under the fitted shading), clamped to 0..1. The
-/// render is blurred first (sigma `SHADING_BLUR` pixels): inside a crop of one surface the shading is smooth,
-/// and its Monte Carlo noise, divided into the crop, would read as fine texture to the descriptor (a graph fit
-/// then widens plank seams to match it).
-fn albedo_crop(photo: &[f32], render: &[f32], albedo: Vec3, w: usize, r: [usize; 4]) -> Image {
+/// Working rect `r` in detail pixels (k detail pixels per working pixel), inside the detail photo.
+fn detail_rect(r: [usize; 4], k: [f32; 2], detail: &Image) -> [usize; 4] {
+    let x = ((r[0] as f32 * k[0]).round() as usize).min(detail.width - 1);
+    let y = ((r[1] as f32 * k[1]).round() as usize).min(detail.height - 1);
+    let cw = ((r[2] as f32 * k[0]).round() as usize).clamp(1, detail.width - x);
+    let ch = ((r[3] as f32 * k[1]).round() as usize).clamp(1, detail.height - y);
+    [x, y, cw, ch]
+}
+
+/// The crop `rd` of detail x albedo / render (the photo's albedo under the fitted shading), clamped to 0..1.
+/// The render's working rect `r` is blurred first (sigma `SHADING_BLUR` pixels): inside a crop of one surface
+/// the shading is smooth, and its Monte Carlo noise, divided into the crop, would read as fine texture to the
+/// descriptor (a graph fit then widens plank seams to match it); each detail pixel then takes the blurred
+/// shading bilinearly at its centre (at k = 1, the working pixel itself).
+fn albedo_crop(
+    detail: &Image,
+    render: &[f32],
+    albedo: Vec3,
+    w: usize,
+    r: [usize; 4],
+    rd: [usize; 4],
+    k: [f32; 2],
+) -> Image {
     let mut shading = Vec::with_capacity(r[2] * r[3] * 3);
     for y in r[1]..r[1] + r[3] {
         shading.extend_from_slice(&render[3 * (y * w + r[0])..3 * (y * w + r[0] + r[2])]);
@@ -212,17 +278,29 @@ fn albedo_crop(photo: &[f32], render: &[f32], albedo: Vec3, w: usize, r: [usize;
     let shading = Image { width: r[2], height: r[3], channels: 3, data: shading };
     let shading = crate::loss::blur(&Tensor::constant(shading), SHADING_BLUR).map(|t| t.value().data.clone());
     let shading = shading.expect("a positive blur of a non-empty crop");
-    let mut data = Vec::with_capacity(r[2] * r[3] * 3);
-    for (i, y) in (r[1]..r[1] + r[3]).enumerate() {
-        for (j, x) in (r[0]..r[0] + r[2]).enumerate() {
-            let p = 3 * (y * w + x);
-            let q = 3 * (i * r[2] + j);
+    // Where detail pixel `i` (a column or row index) falls in the working rect starting at `start`, `len` long:
+    // the two pixels either side and the weight of the second.
+    let taps = |i: usize, k: f32, start: usize, len: usize| {
+        let u = ((i as f32 + 0.5) / k - 0.5 - start as f32).clamp(0.0, (len - 1) as f32);
+        let a = u.floor() as usize;
+        (a, (a + 1).min(len - 1), u - a as f32)
+    };
+    let mut data = Vec::with_capacity(rd[2] * rd[3] * 3);
+    for y in rd[1]..rd[1] + rd[3] {
+        let (y0, y1, fy) = taps(y, k[1], r[1], r[3]);
+        for x in rd[0]..rd[0] + rd[2] {
+            let (x0, x1, fx) = taps(x, k[0], r[0], r[2]);
+            let p = 3 * (y * detail.width + x);
             for c in 0..3 {
-                data.push((photo[p + c] * albedo[c] / shading[q + c].max(1e-4)).clamp(0.0, 1.0));
+                let at = |yy: usize, xx: usize| shading[3 * (yy * r[2] + xx) + c];
+                let top = at(y0, x0) * (1.0 - fx) + at(y0, x1) * fx;
+                let bottom = at(y1, x0) * (1.0 - fx) + at(y1, x1) * fx;
+                let s = top * (1.0 - fy) + bottom * fy;
+                data.push((detail.data[p + c] * albedo[c] / s.max(1e-4)).clamp(0.0, 1.0));
             }
         }
     }
-    Image { width: r[2], height: r[3], channels: 3, data }
+    Image { width: rd[2], height: rd[3], channels: 3, data }
 }
 
 /// Pixels of blur on the shading a crop's albedo is divided by.
@@ -258,9 +336,10 @@ fn local_contrast(img: &Image) -> f32 {
     (ratio.iter().map(|v| (v - m).powi(2)).sum::<f32>() / n).sqrt()
 }
 
-/// The uvs of `material`'s surface under each pixel of the crop; pixels where the fitted scene shows another
-/// surface borrow their left (or upper) neighbour's. None when more than 5 % of the pixels do.
-fn uv_grid(d: &SceneData, material: u32, r: [usize; 4], samples: usize) -> Option<UvGrid> {
+/// The uvs of `material`'s surface under each pixel of the crop `r` of the detail photo (k of its pixels per
+/// working pixel); pixels where the fitted scene shows another surface borrow their left (or upper)
+/// neighbour's. None when more than 5 % of the pixels do.
+fn uv_grid(d: &SceneData, material: u32, r: [usize; 4], k: [f32; 2], samples: usize) -> Option<UvGrid> {
     let origin = Vec3::from(d.camera.origin);
     let mut uvs: Vec<Vec<[f64; 2]>> = Vec::with_capacity(r[2] * r[3]);
     for y in r[1]..r[1] + r[3] {
@@ -269,7 +348,7 @@ fn uv_grid(d: &SceneData, material: u32, r: [usize; 4], samples: usize) -> Optio
             for j in 0..samples {
                 for i in 0..samples {
                     let (sx, sy) = ((i as f32 + 0.5) / samples as f32, (j as f32 + 0.5) / samples as f32);
-                    let dir = camera_ray(&d.camera, x as f32 + sx, y as f32 + sy);
+                    let dir = camera_ray(&d.camera, (x as f32 + sx) / k[0], (y as f32 + sy) / k[1]);
                     let Some(hit) = trace_closest(&d.nodes, &d.triangles, origin, dir, f32::INFINITY) else { continue };
                     let t = hit.triangle as usize;
                     let sh = &d.shading[t];
