@@ -110,7 +110,9 @@ fn wood_crops_under_a_light_left_in_them_stay_wood() {
         let crop = query(tex, variant(light).unwrap(), &camera, &mut rng);
         let top = search_materials_with(&crop, &grid, &library, 3, 1.0, None).unwrap();
         let names: Vec<&str> = top.iter().map(|m| m.name.as_str()).collect();
-        eprintln!("{name} under {light}: {names:?}");
+        let scored: Vec<String> =
+            top.iter().map(|m| format!("{} {:.3} ({:.5})", m.name, m.distance, m.texture_distance)).collect();
+        eprintln!("{name} under {light}: {scored:?}");
         if !WOOD.contains(&names[0]) {
             astray.push(format!("{name} under {light} -> {}", names[0]));
         }
