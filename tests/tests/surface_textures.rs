@@ -14,7 +14,8 @@ use psdr::loss::Image;
 use psdr::render::{render_cpu, SceneData};
 use psdr::scene::{Color, Scene, Texture, UvTransform};
 use psdr::stages::{
-    contrast, library_textures, relative_rmse_downsampled, texture_surfaces, Segment, SurfaceTextureOptions,
+    contrast, library_textures, relative_rmse_downsampled, texture_surfaces, LibraryTexture, Segment,
+    SurfaceTextureOptions,
 };
 use psdr_tests::known_geometry::truth_room;
 
@@ -24,25 +25,29 @@ fn render(s: &Scene, spp: u32) -> Vec<f32> {
     render_cpu(&SceneData::build(s).unwrap(), &settings, &|_, _| {}).radiance
 }
 
+/// `material` of `scene` wears the library texture `tex` at `scale` repeats per metre, turned by `rotation`.
+fn wear(scene: &mut Scene, material: &str, tex: &LibraryTexture, scale: f32, rotation: f32) {
+    scene.textures.push(Texture {
+        path: None,
+        width: tex.size as u32,
+        height: tex.size as u32,
+        channels: 3,
+        texels: tex.albedo.clone(),
+    });
+    let mat = scene.materials.iter_mut().find(|x| x.name == material).unwrap();
+    mat.albedo = Color::Texture(scene.textures.len() - 1);
+    mat.uv_transform = UvTransform { scale: Vec2::splat(scale), rotation_deg: rotation, offset: Vec2::ZERO };
+}
+
 #[test]
 fn textured_floor_and_walls_get_their_library_materials() {
     let (mut truth, _) = truth_room();
     (truth.camera.width, truth.camera.height) = (256, 192);
     let library = library_textures(128).unwrap();
     // (material, library texture, repeats per metre, rotation).
-    let wear = [("floor", "oak_planks", 0.5f32, 90.0f32), ("wall", "wallpaper_stripes", 1.0, 0.0)];
-    for (m, name, scale, rotation) in wear {
-        let tex = library.iter().find(|t| t.name == name).unwrap();
-        truth.textures.push(Texture {
-            path: None,
-            width: tex.size as u32,
-            height: tex.size as u32,
-            channels: 3,
-            texels: tex.albedo.clone(),
-        });
-        let mat = truth.materials.iter_mut().find(|x| x.name == m).unwrap();
-        mat.albedo = Color::Texture(truth.textures.len() - 1);
-        mat.uv_transform = UvTransform { scale: Vec2::splat(scale), rotation_deg: rotation, offset: Vec2::ZERO };
+    let worn = [("floor", "oak_planks", 0.5f32, 90.0f32), ("wall", "wallpaper_stripes", 1.0, 0.0)];
+    for (m, name, scale, rotation) in worn {
+        wear(&mut truth, m, library.iter().find(|t| t.name == name).unwrap(), scale, rotation);
     }
     let t = std::time::Instant::now();
     let frame = {
@@ -52,7 +57,7 @@ fn textured_floor_and_walls_get_their_library_materials() {
     };
     // What the homogeneous pass leaves: each textured albedo as its mean.
     let mut start = truth.clone();
-    for (m, name, _, _) in wear {
+    for (m, name, _, _) in worn {
         let tex = library.iter().find(|t| t.name == name).unwrap();
         let n = (tex.size * tex.size) as f32;
         let mean = Vec3::from_array(std::array::from_fn(|c| tex.albedo.iter().skip(c).step_by(3).sum::<f32>() / n));
@@ -85,7 +90,7 @@ fn textured_floor_and_walls_get_their_library_materials() {
         texture_surfaces(&mut CpuBackend, &mut start, &frame.radiance, None, &segments, &library, &opts).unwrap();
     eprintln!("texture_surfaces: {:.1} s (with the photo's render)", t.elapsed().as_secs_f32());
     eprintln!("{}", serde_json::to_string_pretty(&found).unwrap());
-    for (m, name, scale, rotation) in wear {
+    for (m, name, scale, rotation) in worn {
         let s = found.iter().find(|s| s.material == m).unwrap();
         let hit = s.matches.iter().find(|x| x.name == name).unwrap_or_else(|| panic!("{m}: {name} not in {s:?}"));
         let ratio = hit.scale / scale;
@@ -147,16 +152,7 @@ fn a_brick_wall_is_recognised_from_the_photo_at_twice_the_working_size() {
     let library = library_textures(128).unwrap();
     let (name, scale) = ("brick_wall", 1.0f32);
     let tex = library.iter().find(|t| t.name == name).unwrap();
-    truth.textures.push(Texture {
-        path: None,
-        width: tex.size as u32,
-        height: tex.size as u32,
-        channels: 3,
-        texels: tex.albedo.clone(),
-    });
-    let mat = truth.materials.iter_mut().find(|x| x.name == "wall").unwrap();
-    mat.albedo = Color::Texture(truth.textures.len() - 1);
-    mat.uv_transform = UvTransform { scale: Vec2::splat(scale), rotation_deg: 0.0, offset: Vec2::ZERO };
+    wear(&mut truth, "wall", tex, scale, 0.0);
     let (w, h) = (256usize, 192usize);
     let detail = {
         let mut s = truth.clone();
