@@ -6,8 +6,9 @@
 //! `segments` maps a homogeneous material's name to the mask of the photo's pixels that show it. Both change
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
 //! `texture_surfaces(s, photo, segments, #{spp, top_k, colour_weight, min_contrast, min_crop, max_crop,
-//! samples, library_size, graph_iters, graph_lr, embedding, embedding_weight, detail})` gives the segments that show a
-//! texture (ranked with an ONNX image encoder's similarity too when `embedding` names one) a procedural material
+//! samples, library_size, graph_iters, graph_lr, embedding, embedding_weight, detail})` gives the segments that
+//! show a texture (ranked with an ONNX image encoder's similarity too when `embedding` names one; crops cut from
+//! `detail`, the photo at more pixels, when given) a procedural material
 //! from the library, its graph fitted to the crop (`stages::surface_textures`, `stages::graph_fit`), recorded
 //! as `surface_textures` (crops, top matches, decisions, the graph fits).
 

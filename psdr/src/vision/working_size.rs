@@ -317,6 +317,14 @@ mod tests {
             }
         }
         assert!(worst < 1e-5, "a working pixel differs from its detail pixels' mean by {worst}");
+        // Against the photo itself: channel 0 is x / w at photo pixel x, so a detail pixel's value is the
+        // photo column at its footprint's centre (x0 + (X + 0.5) s - 0.5, s photo pixels per detail pixel).
+        let s = crop[2] / detail.width as f64;
+        for x in [0, 17, detail.width / 2, detail.width - 1] {
+            let want = ((crop[0] + (x as f64 + 0.5) * s - 0.5) / w as f64) as f32;
+            let got = detail.data[(5 * detail.width + x) * 3];
+            assert!((got - want).abs() < 0.6 / w as f32, "detail column {x}: {got} where the photo has {want}");
+        }
         // Never more pixels than the photo has; the photo itself where it has the working aspect.
         let small = Image::new(512, 384, 3, vec![0.5; 512 * 384 * 3]).unwrap();
         let same = detail_photo(&small, (320, 240), 640).unwrap();
