@@ -9,7 +9,7 @@
 use glam::Vec3;
 use psdr::backend::CpuBackend;
 use psdr::scene::{Color, Material, RenderSettings, Scene};
-use psdr::stages::{divide_albedos, Segment};
+use psdr::stages::{divide_albedos, Division, Segment};
 use psdr_tests::known_geometry::truth_room;
 
 /// The truth room with light surfaces, and per material the pixels that show it.
@@ -68,7 +68,14 @@ fn the_division_converges_where_light_bounces_many_times() {
     let mut errors = vec![worst_error(&start, &truth, &segments)];
     let divided = |rounds: usize| {
         let mut scene = start.clone();
-        divide_albedos(&mut CpuBackend, &mut scene, &photo, &segments, rounds, 64).unwrap();
+        divide_albedos(
+            &mut CpuBackend,
+            &mut scene,
+            &photo,
+            &segments,
+            &Division { rounds, spp: 64, ..Default::default() },
+        )
+        .unwrap();
         scene
     };
     errors.extend((1..5).map(|rounds| worst_error(&divided(rounds), &truth, &segments)));
@@ -86,4 +93,32 @@ fn the_division_converges_where_light_bounces_many_times() {
         assert!(errors[k] <= errors[k - 1] + 0.01, "{k} rounds ended farther from the truth: {errors:?}");
     }
     assert!(*errors.last().unwrap() < 0.04, "{errors:?}");
+}
+
+/// A division with a tolerance ends after the round whose ratios are within it: started at the truth's albedos
+/// the first round's ratios are the renders' noise (a pixel-weighted mean |ln| of 0.003-0.008 at 32 spp on
+/// were; started at grey 0.5 (ratios of 0.3-0.5 in log) it goes on until its ratios are that small, more
+/// rounds than the five above in this light room (a render here grows 3-5 times as fast as its albedos, so a
+/// ratio of 0.02 is an albedo a fraction of a percent off), and ends nearer the truth than those five (4 %).
+#[test]
+fn a_division_ends_once_its_ratios_are_within_the_tolerance() {
+    let (truth, photo, segments) = light_room();
+    let division = Division { rounds: 12, spp: 64, tolerance: 0.02, ..Default::default() };
+    let mut at_truth = truth.clone();
+    at_truth.settings = RenderSettings { spp: 16, max_depth: 16, rr_depth: 3, seed: 1 };
+    let rounds = divide_albedos(&mut CpuBackend, &mut at_truth, &photo, &segments, &division).unwrap();
+    let error = worst_error(&at_truth, &truth, &segments);
+    println!("from the truth: {rounds} round(s), worst albedo {error}");
+    assert_eq!(rounds, 1, "a division started at its answer rendered {rounds} rounds");
+    assert!(error < 0.04, "{error}");
+
+    let mut grey = at_truth.clone();
+    for s in &segments {
+        grey.materials[s.material].albedo = Color::Constant(Vec3::splat(0.5));
+    }
+    let rounds = divide_albedos(&mut CpuBackend, &mut grey, &photo, &segments, &division).unwrap();
+    let error = worst_error(&grey, &truth, &segments);
+    println!("from grey: {rounds} rounds, worst albedo {error}");
+    assert!((2..12).contains(&rounds), "{rounds} rounds from grey");
+    assert!(error < 0.04, "{error}");
 }

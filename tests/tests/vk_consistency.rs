@@ -238,6 +238,7 @@ fn light_scale_search_on_the_device_matches_the_cpu() {
         steps: 5,
         rounds: 2,
         spp: 8,
+        tolerance: 0.02,
         downsample: 4,
         per_channel: true,
         extend: 0,

@@ -1,8 +1,8 @@
 //! Materials in scripts: `material_segments(s, obs, #{min_pixels})` maps each material the photo shows to its
 //! mask (`stages::material_segments`).
 //! Albedos from shading (`stages::albedo_division`): `divide_albedos(s, photo, segments, #{rounds,
-//! spp})` and `light_scale_search(s, photo, segments, #{range, steps, rounds, spp, downsample, per_channel, extend,
-//! resolution})`, where
+//! spp, tolerance, direct_spp})` and `light_scale_search(s, photo, segments, #{range, steps, rounds, spp, tolerance, downsample, per_channel,
+//! extend, resolution, ...})`, where
 //! `segments` maps a homogeneous material's name to the mask of the photo's pixels that show it. Both change
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
 //! `texture_surfaces(s, photo, segments, #{spp, top_k, colour_weight, min_contrast, min_crop, max_crop,
@@ -18,8 +18,8 @@ use super::vision_api::ObsHandle;
 use crate::error::Error;
 use crate::loss::{Image, Tensor};
 use crate::stages::{
-    divide_albedos, library_textures, material_segments, search_light_scale, texture_surfaces, LightFitOptions,
-    LightScaleOptions, Segment, SurfaceTextureOptions,
+    divide_albedos, library_textures, material_segments, search_light_scale, texture_surfaces, Division,
+    LightFitOptions, LightScaleOptions, Segment, SurfaceTextureOptions,
 };
 use rhai::{Dynamic, Engine, Map};
 
@@ -54,17 +54,23 @@ pub(super) fn segments(
 }
 
 fn divide(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<()> {
-    let (mut rounds, mut spp) = (3usize, 32u32);
+    let mut d = Division::default();
     for (k, v) in opts {
         let n = option_number("divide_albedos", k, v)?;
         match k.as_str() {
-            "rounds" => rounds = n.max(0.0) as usize,
-            "spp" => spp = n.max(1.0) as u32,
-            other => return Err(Error::Invalid(format!("divide_albedos: unknown option '{other}' (rounds, spp)"))),
+            "rounds" => d.rounds = n.max(0.0) as usize,
+            "spp" => d.spp = n.max(1.0) as u32,
+            "tolerance" => d.tolerance = n.max(0.0) as f32,
+            "direct_spp" => d.direct_spp = n.max(0.0) as u32,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "divide_albedos: unknown option '{other}' (rounds, spp, tolerance, direct_spp)"
+                )))
+            }
         }
     }
     let (photo, segs) = segments("divide_albedos", scene, photo, map)?;
-    on_backend(run, "divide_albedos", |b| divide_albedos(b, &mut scene.0, &photo, &segs, rounds, spp))
+    on_backend(run, "divide_albedos", |b| divide_albedos(b, &mut scene.0, &photo, &segs, &d).map(|_| ()))
 }
 
 fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<Map> {
@@ -87,6 +93,7 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             "steps" => o.steps = option_number(what, k, v)?.max(0.0) as usize,
             "rounds" => o.rounds = option_number(what, k, v)?.max(0.0) as usize,
             "spp" => o.spp = option_number(what, k, v)?.max(1.0) as u32,
+            "tolerance" => o.tolerance = option_number(what, k, v)?.max(0.0) as f32,
             "downsample" => o.downsample = option_number(what, k, v)?.max(1.0) as usize,
             "extend" => o.extend = option_number(what, k, v)?.max(0.0) as usize,
             "resolution" => o.resolution = option_number(what, k, v)? as f32,
@@ -96,8 +103,8 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             }
             other => {
                 return Err(Error::Invalid(format!(
-                    "{what}: unknown option '{other}' (range, steps, rounds, spp, downsample, per_channel, extend, \
-                     resolution, split_spp, split_rounds, split_downsample, tint_prior)"
+                    "{what}: unknown option '{other}' (range, steps, rounds, spp, tolerance, downsample, \
+                     per_channel, extend, resolution, split_spp, split_rounds, split_downsample, tint_prior)"
                 )))
             }
         }

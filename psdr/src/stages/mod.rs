@@ -24,7 +24,7 @@ pub use materials::{
     contrast, library_textures, search_materials, search_materials_on, search_materials_with, transformed_view,
     view_at, LibraryTexture, MaterialEncoder, MaterialMatch,
 };
-pub use materials::{divide_albedos, search_light_scale, LightScale, LightScaleOptions, Segment};
+pub use materials::{divide_albedos, search_light_scale, Division, LightScale, LightScaleOptions, Segment};
 pub use materials::{fit_graph_to_crop, GraphFit, GraphFitOptions};
 pub use materials::{texture_surfaces, SurfaceTexture, SurfaceTextureOptions};
 pub use materials::{texture_view, texture_view_backward, Mips, UvGrid};

@@ -10,7 +10,7 @@ mod material_segments;
 mod surface_textures;
 mod texture_view;
 
-pub use albedo_division::{divide_albedos, search_light_scale, LightScale, LightScaleOptions, Segment};
+pub use albedo_division::{divide_albedos, search_light_scale, Division, LightScale, LightScaleOptions, Segment};
 pub use graph_fit::{fit_graph_to_crop, GraphFit, GraphFitOptions};
 pub use material_search::{
     contrast, library_textures, search_materials, search_materials_on, search_materials_with, transformed_view,
