@@ -239,6 +239,7 @@ fn light_scale_search_on_the_device_matches_the_cpu() {
         rounds: 2,
         spp: 8,
         tolerance: 0.02,
+        direct_spp: 4,
         downsample: 4,
         per_channel: true,
         extend: 0,

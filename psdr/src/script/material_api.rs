@@ -1,8 +1,8 @@
 //! Materials in scripts: `material_segments(s, obs, #{min_pixels})` maps each material the photo shows to its
 //! mask (`stages::material_segments`).
 //! Albedos from shading (`stages::albedo_division`): `divide_albedos(s, photo, segments, #{rounds,
-//! spp, tolerance, direct_spp})` and `light_scale_search(s, photo, segments, #{range, steps, rounds, spp, tolerance, downsample, per_channel,
-//! extend, resolution, ...})`, where
+//! spp, tolerance, direct_spp})` and `light_scale_search(s, photo, segments, #{range, steps, rounds, spp, tolerance, direct_spp, downsample,
+//! per_channel, extend, resolution, ...})`, where
 //! `segments` maps a homogeneous material's name to the mask of the photo's pixels that show it. Both change
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
 //! `texture_surfaces(s, photo, segments, #{spp, top_k, colour_weight, min_contrast, min_crop, max_crop,
@@ -94,6 +94,7 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             "rounds" => o.rounds = option_number(what, k, v)?.max(0.0) as usize,
             "spp" => o.spp = option_number(what, k, v)?.max(1.0) as u32,
             "tolerance" => o.tolerance = option_number(what, k, v)?.max(0.0) as f32,
+            "direct_spp" => o.direct_spp = option_number(what, k, v)?.max(0.0) as u32,
             "downsample" => o.downsample = option_number(what, k, v)?.max(1.0) as usize,
             "extend" => o.extend = option_number(what, k, v)?.max(0.0) as usize,
             "resolution" => o.resolution = option_number(what, k, v)? as f32,
@@ -103,8 +104,8 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             }
             other => {
                 return Err(Error::Invalid(format!(
-                    "{what}: unknown option '{other}' (range, steps, rounds, spp, tolerance, downsample, \
-                     per_channel, extend, resolution, split_spp, split_rounds, split_downsample, tint_prior)"
+                    "{what}: unknown option '{other}' (range, steps, rounds, spp, tolerance, direct_spp, \
+                     downsample, per_channel, extend, resolution, split_spp, split_rounds, split_downsample, tint_prior)"
                 )))
             }
         }

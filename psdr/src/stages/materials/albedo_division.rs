@@ -256,6 +256,9 @@ pub struct LightScaleOptions {
     pub spp: u32,
     /// Each factor's divisions end early where a round's ratios are within this (`Division::tolerance`).
     pub tolerance: f32,
+    /// Samples of each division's one render of direct light (`Division::direct_spp`; 0: `spp`). A quarter of
+    /// `spp` in the pipeline: at `spp` it took 15 % of the search's time, and it only sets the Newton steps' rate.
+    pub direct_spp: u32,
     pub downsample: usize,
     /// A factor per colour channel (white balance absorbed into the lights' colour), or one for all three
     /// (the lights keep their fitted colour; the albedos take the rest).
@@ -285,6 +288,7 @@ impl Default for LightScaleOptions {
             rounds: 3,
             spp: 32,
             tolerance: 0.0,
+            direct_spp: 0,
             downsample: 8,
             per_channel: true,
             extend: 0,
@@ -386,9 +390,7 @@ impl ScaleScoring<'_> {
         opts: &LightScaleOptions,
     ) -> Result<()> {
         let spp = opts.spp;
-        // The direct render at a quarter of the samples: at the division's it took 15 % of the search's time.
-        let division =
-            |rounds: usize| Division { rounds, spp, tolerance: opts.tolerance, direct_spp: (spp / 4).max(4) };
+        let division = |rounds: usize| Division { rounds, spp, tolerance: opts.tolerance, direct_spp: opts.direct_spp };
         // One light has no split to refit (its level and colour are the factor's).
         let Some(fit) = opts.split.as_ref().filter(|_| self.lights.len() > 1) else {
             return divide_albedos(backend, scene, self.photo, segments, &division(opts.rounds)).map(|_| ());
