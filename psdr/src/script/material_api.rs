@@ -6,11 +6,13 @@
 //! `segments` maps a homogeneous material's name to the mask of the photo's pixels that show it. Both change
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
 //! `texture_surfaces(s, photo, segments, #{spp, top_k, colour_weight, min_contrast, min_crop, max_crop,
-//! samples, library_size, graph_iters, graph_lr, embedding, embedding_weight, detail})` gives the segments that
-//! show a texture (ranked with an ONNX image encoder's similarity too when `embedding` names one; crops cut from
-//! `detail`, the photo at more pixels, when given) a procedural material
-//! from the library, its graph fitted to the crop (`stages::surface_textures`, `stages::graph_fit`), recorded
-//! as `surface_textures` (crops, top matches, decisions, the graph fits).
+//! samples, library_size, graph_iters, graph_lr, embedding, embedding_weight, register, max_error_ratio,
+//! detail})` gives the segments that show a texture (ranked with an ONNX image encoder's similarity too when
+//! `embedding` names one; crops cut from `detail`, the photo at more pixels, when given) a procedural material
+//! from the library, its graph fitted to the crop (`stages::surface_textures`, `stages::graph_fit`) and, unless
+//! `register` is false, registered on the segment's pixels (taken back, homogeneous, where the registered
+//! texture's squared error against the photo's albedo is not below `max_error_ratio` times the flat albedo's),
+//! recorded as `surface_textures` (crops, top matches, decisions, the graph fits, the registrations).
 
 use super::api_support::{check_photo, on_backend, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
@@ -160,6 +162,13 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
             detail = Some(t.value().clone());
             continue;
         }
+        if k == "register" {
+            o.register = v
+                .as_bool()
+                .or_else(|_| v.as_int().map(|n| n != 0))
+                .map_err(|_| Error::Invalid(format!("{what}: 'register' is true or false")))?;
+            continue;
+        }
         if k == "embedding" {
             let path = v.clone().into_string().map_err(|_| Error::Invalid(format!("{what}: 'embedding' is a path")))?;
             o.embedding = (!path.is_empty()).then(|| std::path::PathBuf::from(path));
@@ -179,11 +188,12 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
             "graph_iters" => o.graph_fit.iters = n.max(0.0) as usize,
             "graph_lr" => o.graph_fit.lr = n.max(0.0),
             "embedding_weight" => o.embedding_weight = n.max(0.0) as f32,
+            "max_error_ratio" => o.registration.max_error_ratio = n.max(0.0) as f32,
             other => {
                 return Err(Error::Invalid(format!(
                     "{what}: unknown option '{other}' (spp, top_k, colour_weight, min_contrast, min_crop, max_crop, \
                      samples, contrast_tolerance, library_size, graph_iters, graph_lr, embedding, embedding_weight, \
-                     detail)"
+                     register, max_error_ratio, detail)"
                 )))
             }
         }

@@ -1,13 +1,15 @@
 //! The material stage: which photo pixels show which material (`material_segments`), albedos divided out of
 //! the shading and the lights' common scale (`albedo_division`), the procedural library searched on a crop
 //! (`material_search`, through `texture_view`) and fitted to it (`graph_fit`), and applied to the surfaces that
-//! show a texture (`surface_textures`).
+//! show a texture (`surface_textures`), registered on the surface's pixels (`texture_registration`).
 
 mod albedo_division;
 mod graph_fit;
 mod material_search;
 mod material_segments;
+mod offset_correlation;
 mod surface_textures;
+mod texture_registration;
 mod texture_view;
 
 pub use albedo_division::{divide_albedos, search_light_scale, Division, LightScale, LightScaleOptions, Segment};
@@ -18,4 +20,5 @@ pub use material_search::{
 };
 pub use material_segments::material_segments;
 pub use surface_textures::{texture_surfaces, SurfaceTexture, SurfaceTextureOptions};
+pub use texture_registration::{Registration, RegistrationOptions};
 pub use texture_view::{texture_view, texture_view_backward, Mips, UvGrid};

@@ -22,13 +22,19 @@
 //! 5. applied as the library material's procedural albedo (`scene::Procedural`), its graph's parameters, tint
 //!    and uv scale first fitted to the crop by the texture descriptor (`graph_fit`: no rendering, exact
 //!    gradients), then tinted per channel so its mean is the fitted albedo (the lights' fit stays valid), with
-//!    the found rotation. The joint optimisation may move the graph further.
+//!    the found rotation. The joint optimisation may move the graph further;
+//! 6. registered (`texture_registration`, when `register`): rotation, scale and offset found by correlating the
+//!    texture with the photo's albedo over every pixel of the segment, so tiles, courses and seams fall on the
+//!    photo's own (the descriptor cannot see where a pattern sits); a material that, registered, is farther
+//!    from the photo's albedo pixel by pixel than the flat albedo (`error_ratio` not below
+//!    `max_error_ratio`, 1) is taken back: the segment stays homogeneous.
 //!
 //! Every segment's crop, top matches and decision are returned (result.json keeps them as alternatives).
 
 use super::albedo_division::Segment;
 use super::graph_fit::{fit_graph_to_crop, GraphFit, GraphFitOptions};
 use super::material_search::{search_materials_with, view_at, LibraryTexture, MaterialEncoder, MaterialMatch};
+use super::texture_registration::{register_texture, Cells, Registration, RegistrationOptions};
 use super::texture_view::UvGrid;
 use crate::backend::Backend;
 use crate::base::squarest_rect;
@@ -65,6 +71,9 @@ pub struct SurfaceTextureOptions {
     /// search), with this weight on (1 - cosine).
     pub embedding: Option<std::path::PathBuf>,
     pub embedding_weight: f32,
+    /// Step 6: the applied material registered on the segment's pixels.
+    pub register: bool,
+    pub registration: RegistrationOptions,
 }
 
 impl Default for SurfaceTextureOptions {
@@ -81,6 +90,8 @@ impl Default for SurfaceTextureOptions {
             graph_fit: GraphFitOptions::default(),
             embedding: None,
             embedding_weight: 1.0,
+            register: true,
+            registration: RegistrationOptions::default(),
         }
     }
 }
@@ -107,6 +118,8 @@ pub struct SurfaceTexture {
     pub decision: String,
     /// The fit of the applied material's graph to the crop.
     pub graph_fit: Option<GraphFit>,
+    /// Where the applied material was registered on the segment (step 6).
+    pub registration: Option<Registration>,
 }
 
 /// Runs steps 1-5 on every segment (see the module) and changes the chosen materials in `scene`; the shading
@@ -151,6 +164,7 @@ pub fn texture_surfaces(
     let mut settings = scene.settings.clone();
     settings.spp = opts.spp.max(1);
     let render = backend.render(&data, &settings, &|_, _| {})?.radiance;
+    let shading = blurred(&render, w, h);
     let mut model = opts.embedding.as_deref().map(crate::vision::load_embedding_model).transpose()?;
     let mut encoder = model.as_mut().map(|model| MaterialEncoder { model, weight: opts.embedding_weight });
     let mut out = vec![];
@@ -171,6 +185,7 @@ pub fn texture_surfaces(
             chosen: None,
             decision: String::new(),
             graph_fit: None,
+            registration: None,
         };
         let Color::Constant(albedo) = material.albedo else {
             entry.decision = "already textured".into();
@@ -236,9 +251,38 @@ pub fn texture_surfaces(
         let c = local_contrast(&view_at(tex, best.scale, best.rotation_deg, &grid));
         entry.match_contrast = Some(c);
         if (c - crop_contrast).abs() < opts.contrast_tolerance * crop_contrast {
+            let (homogeneous, textures) = (scene.materials[seg.material].clone(), scene.textures.len());
             entry.graph_fit = apply(scene, seg.material, tex, albedo, &best, &grid, &crop, &opts.graph_fit)?;
             entry.decision = format!("{} at scale {:.3}, rotation {}", best.name, best.scale, best.rotation_deg);
             entry.chosen = Some(best);
+            if opts.register {
+                let map: Vec<f32> =
+                    (0..w * h * 3).map(|i| (photo[i] * albedo[i % 3] / shading[i].max(1e-4)).clamp(0.0, 1.0)).collect();
+                let pixels = seg.mask.iter().filter(|&&m| m > 0.5).count();
+                let side = ((pixels as f64 / opts.registration.max_cells.max(1) as f64).sqrt().ceil() as usize).max(1);
+                let cells = Cells::gather(&data, seg.material as u32, &seg.mask, &map, side);
+                entry.registration = register_texture(scene, seg.material, albedo, &cells, &opts.registration);
+                if let Some(r) = &entry.registration {
+                    entry.decision += &format!(
+                        "; registered at scale {:.3}, rotation {}, offset ({:.3}, {:.3}): correlation {:.2} -> {:.2}, \
+                         error {:.2} of the flat albedo's",
+                        r.scale,
+                        r.rotation_deg,
+                        r.offset[0],
+                        r.offset[1],
+                        r.correlation_before,
+                        r.correlation,
+                        r.error_ratio
+                    );
+                    if !r.applied {
+                        // Farther from the photo, pixel by pixel, than the flat albedo: the homogeneous material.
+                        scene.materials[seg.material] = homogeneous;
+                        scene.textures.truncate(textures);
+                        entry.chosen = None;
+                        entry.decision += &format!(" (not below {}): homogeneous", opts.registration.max_error_ratio);
+                    }
+                }
+            }
         } else {
             entry.decision =
                 format!("{} has contrast {c:.3} against the crop's {crop_contrast:.3}: homogeneous", best.name);
@@ -301,6 +345,14 @@ fn albedo_crop(
         }
     }
     Image { width: rd[2], height: rd[3], channels: 3, data }
+}
+
+/// The render blurred by `SHADING_BLUR` pixels (see `albedo_crop`), `w` x `h` RGB.
+fn blurred(render: &[f32], w: usize, h: usize) -> Vec<f32> {
+    let img = Image { width: w, height: h, channels: 3, data: render.to_vec() };
+    crate::loss::blur(&Tensor::constant(img), SHADING_BLUR)
+        .map(|t| t.value().data.clone())
+        .expect("a positive blur of a non-empty render")
 }
 
 /// Pixels of blur on the shading a crop's albedo is divided by.
