@@ -7,12 +7,14 @@
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
 //! `texture_surfaces(s, photo, segments, #{spp, top_k, colour_weight, min_contrast, min_crop, max_crop,
 //! samples, library_size, graph_iters, graph_lr, embedding, embedding_weight, register, max_error_ratio,
-//! detail})` gives the segments that show a texture (ranked with an ONNX image encoder's similarity too when
-//! `embedding` names one; crops cut from `detail`, the photo at more pixels, when given) a procedural material
+//! register_rotation_step, register_scale_octaves, register_scale_steps, detail})` gives the segments that
+//! show a texture (ranked with an ONNX image encoder's similarity too when `embedding` names one; crops cut from `detail`, the photo at more pixels, when given) a procedural material
 //! from the library, its graph fitted to the crop (`stages::surface_textures`, `stages::graph_fit`) and, unless
 //! `register` is false, registered on the segment's pixels (taken back, homogeneous, where the registered
-//! texture's squared error against the photo's albedo is not below `max_error_ratio` times the flat albedo's),
-//! recorded as `surface_textures` (crops, top matches, decisions, the graph fits, the registrations).
+//! texture's squared error against the photo's albedo is not below `max_error_ratio` times the flat albedo's;
+//! rotations tried every `register_rotation_step` degrees, scales `register_scale_octaves` either side of the
+//! search's in `register_scale_steps` per octave), recorded as `surface_textures` (crops, top matches,
+//! decisions, the graph fits, the registrations).
 
 use super::api_support::{check_photo, on_backend, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
@@ -189,11 +191,15 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
             "graph_lr" => o.graph_fit.lr = n.max(0.0),
             "embedding_weight" => o.embedding_weight = n.max(0.0) as f32,
             "max_error_ratio" => o.registration.max_error_ratio = n.max(0.0) as f32,
+            "register_rotation_step" => o.registration.rotation_step = n.clamp(1.0, 360.0) as f32,
+            "register_scale_octaves" => o.registration.scale_octaves = n.clamp(0.0, 4.0) as f32,
+            "register_scale_steps" => o.registration.scale_steps = n.clamp(1.0, 96.0) as usize,
             other => {
                 return Err(Error::Invalid(format!(
                     "{what}: unknown option '{other}' (spp, top_k, colour_weight, min_contrast, min_crop, max_crop, \
                      samples, contrast_tolerance, library_size, graph_iters, graph_lr, embedding, embedding_weight, \
-                     register, max_error_ratio, detail)"
+                     register, max_error_ratio, register_rotation_step, register_scale_octaves, \
+                     register_scale_steps, detail)"
                 )))
             }
         }

@@ -20,6 +20,7 @@
 //! object's mesh uvs are shifted so that its texture lines up too (`uv_shifts`).
 
 use super::offset_correlation::OffsetCorrelator;
+use super::texture_view::Mips;
 use crate::render::bvh::trace_closest;
 use crate::render::camera::camera_ray;
 use crate::render::layout::SHADING_HAS_UVS;
@@ -160,21 +161,11 @@ pub(crate) struct LuminanceMips {
 }
 
 impl LuminanceMips {
-    /// From RGB texels, `width` x `height`, row 0 on top.
-    pub fn new(width: usize, height: usize, rgb: &[f32]) -> LuminanceMips {
-        let lum: Vec<f32> = rgb.chunks(3).map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]).collect();
-        let mut levels = vec![(width, height, lum)];
-        while let Some((w, h, t)) = levels.last().filter(|(w, h, _)| w % 2 == 0 && h % 2 == 0 && *w >= 2 && *h >= 2) {
-            let (nw, nh) = (w / 2, h / 2);
-            let next = (0..nw * nh)
-                .map(|i| {
-                    let (x, y) = (2 * (i % nw), 2 * (i / nw));
-                    0.25 * (t[y * w + x] + t[y * w + x + 1] + t[(y + 1) * w + x] + t[(y + 1) * w + x + 1])
-                })
-                .collect();
-            levels.push((nw, nh, next));
-        }
-        LuminanceMips { levels }
+    /// From a square texture's RGB texels, `size` x `size`, row 0 on top: the luminance of each level of its
+    /// mip chain (`Mips`: a box average of luminance is the luminance of the box average).
+    pub fn new(size: usize, rgb: &[f32]) -> LuminanceMips {
+        let lum = |t: &[f32]| t.chunks(3).map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]).collect();
+        LuminanceMips { levels: Mips::new(size, rgb).levels.iter().map(|(n, t)| (*n, *n, lum(t))).collect() }
     }
 
     /// Trilinear lookup at `uv` through `t`, filtered to a footprint of `footprint` texture units.
@@ -544,10 +535,10 @@ pub fn register_texture(
 ) -> Option<Registration> {
     let crate::scene::Color::Texture(t) = scene.materials[material].albedo else { return None };
     let tex = &scene.textures[t];
-    if tex.channels != 3 {
+    if tex.channels != 3 || tex.width != tex.height {
         return None;
     }
-    let mips = LuminanceMips::new(tex.width as usize, tex.height as usize, &tex.texels);
+    let mips = LuminanceMips::new(tex.width as usize, &tex.texels);
     let start = scene.materials[material].uv_transform;
     let (fit, before) = register(cells, &mips, start.scale.x, start.rotation_deg, opts)?;
     let error_ratio = error_ratio(cells, &mips, &fit, flat);
@@ -607,7 +598,7 @@ mod tests {
     fn a_brick_wall_is_found_where_the_photo_shows_it() {
         let size = 128;
         let texels = library_texture("brick_wall", size);
-        let mips = LuminanceMips::new(size, size, &texels);
+        let mips = LuminanceMips::new(size, &texels);
         let (scale, rotation) = (0.83, 0.0);
         let truth = [[0.21, 0.64], [0.57, 0.12]];
         let origins = [[-8.97, -7.6], [3.3, -7.6]];
@@ -682,12 +673,12 @@ mod tests {
     fn a_texture_the_photo_does_not_show_is_farther_than_the_flat_albedo() {
         let size = 64;
         let bricks = library_texture("brick_wall", size);
-        let mips = LuminanceMips::new(size, size, &bricks);
+        let mips = LuminanceMips::new(size, &bricks);
         let lum = |t: &[f32]| t.chunks(3).map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]).sum::<f32>();
         let mean = |t: &[f32]| Vec3::splat(lum(t) / (size * size) as f32);
         for (photo, want_below) in [("brick_wall", true), ("stucco", false)] {
             let shown = library_texture(photo, size);
-            let truth = LuminanceMips::new(size, size, &shown);
+            let truth = LuminanceMips::new(size, &shown);
             let t = TextureTransform { scale: [1.0; 2], rotation_deg: 0.0, offset: [0.3, 0.6] };
             let mut cells = Cells { side: 4, albedo: vec![], uv: vec![], footprint: vec![], object: vec![] };
             for j in 0..50 {
@@ -723,7 +714,7 @@ mod tests {
     /// A photo without texture, or too few blocks, registers nothing.
     #[test]
     fn flat_or_tiny_segments_are_left_alone() {
-        let mips = LuminanceMips::new(64, 64, &library_texture("brick_wall", 64));
+        let mips = LuminanceMips::new(64, &library_texture("brick_wall", 64));
         let flat = Cells {
             side: 4,
             albedo: vec![0.4; 400],
