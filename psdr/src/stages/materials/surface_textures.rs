@@ -25,9 +25,14 @@
 //!    the found rotation. The joint optimisation may move the graph further;
 //! 6. registered (`texture_registration`, when `register`): rotation, scale and offset found by correlating the
 //!    texture with the photo's albedo over every pixel of the segment, so tiles, courses and seams fall on the
-//!    photo's own (the descriptor cannot see where a pattern sits); a material that, registered, is farther
-//!    from the photo's albedo pixel by pixel than the flat albedo (`error_ratio` not below
-//!    `max_error_ratio`, 1) is taken back: the segment stays homogeneous.
+//!    photo's own (the descriptor cannot see where a pattern sits). With registration every one of the
+//!    `top_k` matches that reproduces the crop's contrast is applied (at the library's parameters) and
+//!    registered, each on a copy of the scene, and the one whose registered texture is closest to the photo's
+//!    albedo pixel by pixel is kept, its graph then fitted (step 5) and registered again: the descriptor ranks
+//!    but does not decide (real room11's brick walls ranked terrazzo, granite, checker tiles and a rug before
+//!    bricks, and registered bricks alone came closer than flat). The kept one is taken back where it is not
+//!    clearly closer than the flat albedo (`error_ratio` not below `max_error_ratio`, 0.95): the segment stays
+//!    homogeneous.
 //!
 //! Every segment's crop, top matches and decision are returned (result.json keeps them as alternatives).
 
@@ -80,7 +85,7 @@ impl Default for SurfaceTextureOptions {
     fn default() -> Self {
         SurfaceTextureOptions {
             spp: 32,
-            top_k: 3,
+            top_k: 5,
             colour_weight: 1.0,
             min_contrast: 0.08,
             min_crop: 24,
@@ -120,6 +125,16 @@ pub struct SurfaceTexture {
     pub graph_fit: Option<GraphFit>,
     /// Where the applied material was registered on the segment (step 6).
     pub registration: Option<Registration>,
+    /// The other matches applied and registered on a copy of the scene, not kept (step 6).
+    pub tried: Vec<TriedMaterial>,
+}
+
+/// A match applied and registered on a copy of the scene and not kept: its squared error against the photo's
+/// albedo over the flat albedo's (None: it could not be registered).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct TriedMaterial {
+    pub name: String,
+    pub error_ratio: Option<f32>,
 }
 
 /// Runs steps 1-5 on every segment (see the module) and changes the chosen materials in `scene`; the shading
@@ -186,6 +201,7 @@ pub fn texture_surfaces(
             decision: String::new(),
             graph_fit: None,
             registration: None,
+            tried: vec![],
         };
         let Color::Constant(albedo) = material.albedo else {
             entry.decision = "already textured".into();
@@ -247,49 +263,128 @@ pub fn texture_surfaces(
         entry.matches =
             search_materials_with(&crop, &grid, library, opts.top_k.max(1), opts.colour_weight, encoder.as_mut())?;
         let best = entry.matches.first().cloned().expect("the library is not empty");
-        let tex = library.iter().find(|t| t.name == best.name).expect("matches come from the library");
-        let c = local_contrast(&view_at(tex, best.scale, best.rotation_deg, &grid));
-        entry.match_contrast = Some(c);
-        if (c - crop_contrast).abs() < opts.contrast_tolerance * crop_contrast {
-            let (homogeneous, textures) = (scene.materials[seg.material].clone(), scene.textures.len());
-            entry.graph_fit = apply(scene, seg.material, tex, albedo, &best, &grid, &crop, &opts.graph_fit)?;
-            entry.decision = format!("{} at scale {:.3}, rotation {}", best.name, best.scale, best.rotation_deg);
-            entry.chosen = Some(best);
-            if opts.register {
-                let map: Vec<f32> =
-                    (0..w * h * 3).map(|i| (photo[i] * albedo[i % 3] / shading[i].max(1e-4)).clamp(0.0, 1.0)).collect();
-                let pixels = seg.mask.iter().filter(|&&m| m > 0.5).count();
-                let side = ((pixels as f64 / opts.registration.max_cells.max(1) as f64).sqrt().ceil() as usize).max(1);
-                let cells = Cells::gather(&data, seg.material as u32, &seg.mask, &map, side);
-                entry.registration = register_texture(scene, seg.material, albedo, &cells, &opts.registration);
-                if let Some(r) = &entry.registration {
-                    entry.decision += &format!(
-                        "; registered at scale {:.3}, rotation {}, offset ({:.3}, {:.3}): correlation {:.2} -> {:.2}, \
-                         error {:.2} of the flat albedo's",
-                        r.scale,
-                        r.rotation_deg,
-                        r.offset[0],
-                        r.offset[1],
-                        r.correlation_before,
-                        r.correlation,
-                        r.error_ratio
-                    );
-                    if !r.applied {
-                        // Farther from the photo, pixel by pixel, than the flat albedo: the homogeneous material.
-                        scene.materials[seg.material] = homogeneous;
-                        scene.textures.truncate(textures);
-                        entry.chosen = None;
-                        entry.decision += &format!(" (not below {}): homogeneous", opts.registration.max_error_ratio);
-                    }
+        let library_texture =
+            |name: &str| library.iter().find(|t| t.name == name).expect("matches come from the library");
+        let contrast_of =
+            |m: &MaterialMatch| local_contrast(&view_at(library_texture(&m.name), m.scale, m.rotation_deg, &grid));
+        entry.match_contrast = Some(contrast_of(&best));
+        // The candidates: the best match, or with registration each of the top matches, that reproduces the
+        // crop's local contrast. The descriptor ranks them but cannot see where a pattern sits nor tell bricks
+        // from a stone of their colour (real room11's brick walls ranked terrazzo and granite first); the
+        // registration compares each with every pixel of the segment, and the one closest to the photo's
+        // albedo is kept.
+        let ranked = if opts.register { &entry.matches[..] } else { &entry.matches[..1] };
+        let mut rejected = vec![];
+        let candidates: Vec<&MaterialMatch> = ranked
+            .iter()
+            .filter(|m| {
+                let c = contrast_of(m);
+                let pass = (c - crop_contrast).abs() < opts.contrast_tolerance * crop_contrast;
+                if !pass {
+                    rejected.push(format!("{} has contrast {c:.3} against the crop's {crop_contrast:.3}", m.name));
                 }
+                pass
+            })
+            .collect();
+        if candidates.is_empty() {
+            entry.decision = format!("{}: homogeneous", rejected.join("; "));
+            out.push(entry);
+            continue;
+        }
+        let cells = opts.register.then(|| {
+            let map: Vec<f32> =
+                (0..w * h * 3).map(|i| (photo[i] * albedo[i % 3] / shading[i].max(1e-4)).clamp(0.0, 1.0)).collect();
+            let pixels = seg.mask.iter().filter(|&&m| m > 0.5).count();
+            let side = ((pixels as f64 / opts.registration.max_cells.max(1) as f64).sqrt().ceil() as usize).max(1);
+            Cells::gather(&data, seg.material as u32, &seg.mask, &map, side)
+        });
+        // Each candidate applied to a copy of the scene and registered there; the kept one's copy replaces it.
+        // With several, they are compared at the library's parameters and only the closest has its graph fitted
+        // to the crop (then registered again, and kept fitted where that comes out closer): the fit refines a
+        // family's look, the registration tells the families apart.
+        let register = |scene: &mut Scene| {
+            cells.as_ref().and_then(|cells| register_texture(scene, seg.material, albedo, cells, &opts.registration))
+        };
+        let unfitted = GraphFitOptions { iters: 0, ..opts.graph_fit.clone() };
+        let compare = if candidates.len() > 1 && cells.is_some() { &unfitted } else { &opts.graph_fit };
+        let mut trials = vec![];
+        for m in candidates {
+            let mut scene = scene.clone();
+            let graph_fit =
+                apply(&mut scene, seg.material, library_texture(&m.name), albedo, m, &grid, &crop, compare)?;
+            let registration = register(&mut scene);
+            trials.push(Trial { scene, chosen: m.clone(), graph_fit, registration });
+        }
+        let k = (0..trials.len()).min_by(|&a, &b| trials[a].error().total_cmp(&trials[b].error())).unwrap_or(0);
+        entry.tried = trials
+            .iter()
+            .enumerate()
+            .filter(|&(i, _)| i != k)
+            .map(|(_, t)| TriedMaterial {
+                name: t.chosen.name.clone(),
+                error_ratio: t.registration.as_ref().map(|r| r.error_ratio),
+            })
+            .collect();
+        let mut kept = trials.swap_remove(k);
+        if !std::ptr::eq(compare, &opts.graph_fit) && opts.graph_fit.iters > 0 {
+            let mut scene = scene.clone();
+            let m = &kept.chosen;
+            let graph_fit =
+                apply(&mut scene, seg.material, library_texture(&m.name), albedo, m, &grid, &crop, &opts.graph_fit)?;
+            let fitted = Trial { registration: register(&mut scene), scene, chosen: m.clone(), graph_fit };
+            if fitted.error() <= kept.error() {
+                kept = fitted;
             }
+        }
+        entry.decision = kept.describe();
+        if !entry.tried.is_empty() {
+            let others: Vec<String> =
+                entry.tried.iter().map(|t| format!("{} ({:.2})", t.name, t.error_ratio.unwrap_or(f32::NAN))).collect();
+            entry.decision += &format!("; closer than {}", others.join(", "));
+        }
+        if !rejected.is_empty() {
+            entry.decision += &format!("; not tried: {}", rejected.join("; "));
+        }
+        (entry.registration, entry.graph_fit) = (kept.registration, kept.graph_fit);
+        if entry.registration.as_ref().is_some_and(|r| !r.applied) {
+            // Farther from the photo, pixel by pixel, than the flat albedo: the homogeneous material stays.
+            entry.decision += &format!(" (not below {}): homogeneous", opts.registration.max_error_ratio);
         } else {
-            entry.decision =
-                format!("{} has contrast {c:.3} against the crop's {crop_contrast:.3}: homogeneous", best.name);
+            *scene = kept.scene;
+            entry.chosen = Some(kept.chosen);
         }
         out.push(entry);
     }
     Ok(out)
+}
+
+/// A library material applied to a copy of the scene, and where it registered on the segment.
+struct Trial {
+    scene: Scene,
+    chosen: MaterialMatch,
+    graph_fit: Option<GraphFit>,
+    registration: Option<Registration>,
+}
+
+impl Trial {
+    /// The registered texture's squared error against the photo's albedo over the flat albedo's (infinite
+    /// where it was not registered).
+    fn error(&self) -> f32 {
+        self.registration.as_ref().map_or(f32::INFINITY, |r| r.error_ratio)
+    }
+
+    fn describe(&self) -> String {
+        let m = &self.chosen;
+        let mut d = format!("{} at scale {:.3}, rotation {}", m.name, m.scale, m.rotation_deg);
+        if let Some(r) = &self.registration {
+            d += &format!(
+                "; registered at scale {:.3}, rotation {}, offset ({:.3}, {:.3}): correlation {:.2} -> {:.2}, error \
+                 {:.2} of the flat albedo's",
+                r.scale, r.rotation_deg, r.offset[0], r.offset[1], r.correlation_before, r.correlation, r.error_ratio
+            );
+        }
+        d
+    }
 }
 
 /// Working rect `r` in detail pixels (k detail pixels per working pixel), inside the detail photo.

@@ -44,7 +44,8 @@ pub struct RegistrationOptions {
     /// (rotation, scale) pairs refined with the exact lookups.
     pub keep: usize,
     /// A registration whose `error_ratio` is not below this is not applied (the procedural material does not
-    /// beat the homogeneous one on the photo).
+    /// beat the homogeneous one on the photo). Under 1: `texture_surfaces` keeps the closest of several
+    /// candidates, and one of them may fall just under 1 by fitting the shading's residue.
     pub max_error_ratio: f32,
 }
 
@@ -56,7 +57,7 @@ impl Default for RegistrationOptions {
             scale_steps: 24,
             rotation_step: 90.0,
             keep: 3,
-            max_error_ratio: 1.0,
+            max_error_ratio: 0.95,
         }
     }
 }
@@ -71,7 +72,7 @@ pub struct Registration {
     /// search found (offset 0) and at the registered one.
     pub correlation_before: f32,
     pub correlation: f32,
-    /// Squared error of the registered texture's blocks against the photo's albedo over the flat albedo's
+    /// Squared colour error of the registered texture's blocks against the photo's albedo over the flat albedo's
     /// (below 1: closer to the photo pixel by pixel; a pattern out of phase, or none in the photo, is above).
     pub error_ratio: f32,
     /// Whether the transform was applied: `error_ratio` below `max_error_ratio` (else the texture is farther
@@ -90,6 +91,8 @@ pub(crate) struct Cells {
     pub side: usize,
     /// Luminance of the photo's albedo, mean over the block's pixels.
     pub albedo: Vec<f64>,
+    /// Its colour (RGB), the same mean.
+    pub colour: Vec<[f64; 3]>,
     pub uv: Vec<[f64; 2]>,
     pub footprint: Vec<f64>,
     pub object: Vec<u32>,
@@ -113,15 +116,15 @@ impl Cells {
                 Vec2::from(sh.uv0) * (1.0 - hit.u - hit.v) + Vec2::from(sh.uv1) * hit.u + Vec2::from(sh.uv2) * hit.v;
             Some(([uv.x as f64, uv.y as f64], d.triangles[t].object))
         };
-        let mut out = Cells { side, albedo: vec![], uv: vec![], footprint: vec![], object: vec![] };
+        let mut out = Cells { side, albedo: vec![], colour: vec![], uv: vec![], footprint: vec![], object: vec![] };
         for by in 0..h / side {
             for bx in 0..w / side {
-                let (mut sum, mut n) = (0.0f64, 0usize);
+                let (mut sum, mut n) = ([0.0f64; 3], 0usize);
                 for y in by * side..(by + 1) * side {
                     for x in bx * side..(bx + 1) * side {
                         if mask[y * w + x] > 0.5 {
                             let p = &albedo_map[3 * (y * w + x)..3 * (y * w + x) + 3];
-                            sum += (0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]) as f64;
+                            (0..3).for_each(|c| sum[c] += p[c] as f64);
                             n += 1;
                         }
                     }
@@ -141,7 +144,9 @@ impl Cells {
                     })
                 };
                 let (Some(fx), Some(fy)) = (step(s, 0.0), step(0.0, s)) else { continue };
-                out.albedo.push(sum / n as f64);
+                let colour = sum.map(|v| v / n as f64);
+                out.albedo.push(0.2126 * colour[0] + 0.7152 * colour[1] + 0.0722 * colour[2]);
+                out.colour.push(colour);
                 out.uv.push(uv);
                 out.footprint.push(fx.max(fy));
                 out.object.push(object);
@@ -155,36 +160,57 @@ impl Cells {
     }
 }
 
-/// A texture's luminance and its mip chain (2x2 box averages while the size halves evenly).
-pub(crate) struct LuminanceMips {
+/// A texture's mip chain (2x2 box averages while the size halves evenly) as the registration samples it: its
+/// luminance (`luminance`: the correlations) or its colour (`rgb`: the error against the photo that decides).
+pub(crate) struct TexelMips {
+    pub channels: usize,
     pub levels: Vec<(usize, usize, Vec<f32>)>,
 }
 
-impl LuminanceMips {
-    /// From a square texture's RGB texels, `size` x `size`, row 0 on top: the luminance of each level of its
-    /// mip chain (`Mips`: a box average of luminance is the luminance of the box average).
-    pub fn new(size: usize, rgb: &[f32]) -> LuminanceMips {
+impl TexelMips {
+    /// From a square texture's RGB texels, `size` x `size`, row 0 on top: the luminance of each level (`Mips`: a
+    /// box average of luminance is the luminance of the box average).
+    pub fn luminance(size: usize, rgb: &[f32]) -> TexelMips {
         let lum = |t: &[f32]| t.chunks(3).map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]).collect();
-        LuminanceMips { levels: Mips::new(size, rgb).levels.iter().map(|(n, t)| (*n, *n, lum(t))).collect() }
+        TexelMips { channels: 1, levels: Mips::new(size, rgb).levels.iter().map(|(n, t)| (*n, *n, lum(t))).collect() }
     }
 
-    /// Trilinear lookup at `uv` through `t`, filtered to a footprint of `footprint` texture units.
+    /// The same, every level in RGB.
+    pub fn rgb(size: usize, rgb: &[f32]) -> TexelMips {
+        TexelMips { channels: 3, levels: Mips::new(size, rgb).levels.into_iter().map(|(n, t)| (n, n, t)).collect() }
+    }
+
+    /// Trilinear lookup of the luminance at `uv` through `t`, filtered to a footprint of `footprint` texture
+    /// units.
     fn sample(&self, t: &TextureTransform, uv: [f64; 2], footprint: f64) -> f64 {
+        let mut v = [0.0];
+        self.sample_into(t, uv, footprint, &mut v);
+        v[0]
+    }
+
+    /// The same lookup of the colour (an `rgb` chain).
+    fn sample_rgb(&self, t: &TextureTransform, uv: [f64; 2], footprint: f64) -> [f64; 3] {
+        let mut v = [0.0; 3];
+        self.sample_into(t, uv, footprint, &mut v);
+        v
+    }
+
+    fn sample_into(&self, t: &TextureTransform, uv: [f64; 2], footprint: f64, out: &mut [f64]) {
         let (w0, h0, _) = &self.levels[0];
         let top = self.levels.len() - 1;
         let lod = (footprint * t.scale[0].abs() * (*w0.max(h0)) as f64).max(1.0).log2().min(top as f64);
         let l = (lod.floor() as usize).min(top);
         let f = lod - l as f64;
-        let at = |l: usize| {
+        let at = |l: usize, v: &mut [f64]| {
             let (w, h, texels) = &self.levels[l];
-            let mut v = [0.0];
-            t.lookup(&TextureView { width: *w, height: *h, channels: 1, texels }, uv, &mut v);
-            v[0]
+            t.lookup(&TextureView { width: *w, height: *h, channels: self.channels, texels }, uv, v);
         };
+        at(l, out);
         if f > 0.0 && l < top {
-            (1.0 - f) * at(l) + f * at(l + 1)
-        } else {
-            at(l)
+            let mut next = [0.0; 3];
+            let next = &mut next[..out.len()];
+            at(l + 1, next);
+            out.iter_mut().zip(next.iter()).for_each(|(a, b)| *a = (1.0 - f) * *a + f * b);
         }
     }
 }
@@ -249,7 +275,7 @@ impl Groups {
 
     /// (covariance with the photo, the texture's sum of squares about its mean) of object group `g` at `t`.
     /// `blur`: the least footprint, in texture units (see `fit`).
-    fn terms(&self, g: usize, cells: &Cells, mips: &LuminanceMips, t: &TextureTransform, blur: f64) -> (f64, f64) {
+    fn terms(&self, g: usize, cells: &Cells, mips: &TexelMips, t: &TextureTransform, blur: f64) -> (f64, f64) {
         let least = blur / t.scale[0].abs().max(1e-9);
         let m = &self.members[g];
         let (mut cov, mut s, mut ss) = (0.0, 0.0, 0.0);
@@ -269,7 +295,7 @@ impl Groups {
     fn fit(
         &self,
         cells: &Cells,
-        mips: &LuminanceMips,
+        mips: &TexelMips,
         rotation_deg: f64,
         scale: f64,
         candidates: &(dyn Fn(usize) -> Vec<[f64; 2]> + Sync),
@@ -408,7 +434,7 @@ fn subsample(n: usize, max: usize) -> Vec<usize> {
 /// `scale` and `rotation_deg`; None when fewer than 16 blocks, a flat photo, or a texture that is not square.
 pub(crate) fn register(
     cells: &Cells,
-    mips: &LuminanceMips,
+    mips: &TexelMips,
     scale: f32,
     rotation_deg: f32,
     opts: &RegistrationOptions,
@@ -507,15 +533,19 @@ fn uv_shift(own: [f64; 2], main: [f64; 2], rotation_deg: f64, scale: f64) -> [f6
 }
 
 /// Squared error of the blocks under the registered texture against the photo's albedo, over the same of the
-/// flat albedo `flat` (RGB) the texture replaces.
-fn error_ratio(cells: &Cells, mips: &LuminanceMips, fit: &Fit, flat: Vec3) -> f32 {
-    let flat = (0.2126 * flat.x + 0.7152 * flat.y + 0.0722 * flat.z) as f64;
+/// flat albedo `flat` the texture replaces, in colour (RGB; `colours`: the texture's `rgb` chain): a texture
+/// whose luminance lines up with the photo's but whose colours do not (stripes over real room02's bookcase,
+/// its wood frame and pale panels, 0.93 in luminance) is no closer.
+fn error_ratio(cells: &Cells, colours: &TexelMips, fit: &Fit, flat: Vec3) -> f32 {
     let (mut textured, mut homogeneous) = (0.0, 0.0);
     for (g, &o) in fit.objects.iter().enumerate() {
         let t = TextureTransform { scale: [fit.scale; 2], rotation_deg: fit.rotation_deg, offset: fit.offsets[g] };
         for i in (0..cells.len()).filter(|&i| cells.object[i] == o) {
-            textured += (cells.albedo[i] - mips.sample(&t, cells.uv[i], cells.footprint[i])).powi(2);
-            homogeneous += (cells.albedo[i] - flat).powi(2);
+            let texel = colours.sample_rgb(&t, cells.uv[i], cells.footprint[i]);
+            for c in 0..3 {
+                textured += (cells.colour[i][c] - texel[c]).powi(2);
+                homogeneous += (cells.colour[i][c] - flat[c] as f64).powi(2);
+            }
         }
     }
     (textured / homogeneous.max(1e-12)) as f32
@@ -538,10 +568,10 @@ pub fn register_texture(
     if tex.channels != 3 || tex.width != tex.height {
         return None;
     }
-    let mips = LuminanceMips::new(tex.width as usize, &tex.texels);
+    let mips = TexelMips::luminance(tex.width as usize, &tex.texels);
     let start = scene.materials[material].uv_transform;
     let (fit, before) = register(cells, &mips, start.scale.x, start.rotation_deg, opts)?;
-    let error_ratio = error_ratio(cells, &mips, &fit, flat);
+    let error_ratio = error_ratio(cells, &TexelMips::rgb(tex.width as usize, &tex.texels), &fit, flat);
     let applied = error_ratio < opts.max_error_ratio;
     // The largest object's offset is the material's; the others' meshes shift by (R S)^-1 (their offset - it),
     // the difference taken within half a unit square (the texture wraps).
@@ -598,12 +628,13 @@ mod tests {
     fn a_brick_wall_is_found_where_the_photo_shows_it() {
         let size = 128;
         let texels = library_texture("brick_wall", size);
-        let mips = LuminanceMips::new(size, &texels);
+        let mips = TexelMips::luminance(size, &texels);
         let (scale, rotation) = (0.83, 0.0);
         let truth = [[0.21, 0.64], [0.57, 0.12]];
         let origins = [[-8.97, -7.6], [3.3, -7.6]];
         let block = 0.03;
-        let mut cells = Cells { side: 4, albedo: vec![], uv: vec![], footprint: vec![], object: vec![] };
+        let mut cells =
+            Cells { side: 4, albedo: vec![], colour: vec![], uv: vec![], footprint: vec![], object: vec![] };
         let mut noise = 0x2545F491u32;
         for (o, origin) in origins.iter().enumerate() {
             let t = TextureTransform { scale: [scale; 2], rotation_deg: rotation, offset: truth[o] };
@@ -615,7 +646,9 @@ mod tests {
                     noise ^= noise << 5;
                     let shading = 1.0 + 0.1 * (i as f64 / 90.0) - 0.05 * (j as f64 / 60.0);
                     let n = 0.02 * ((noise % 1000) as f64 / 1000.0 - 0.5);
-                    cells.albedo.push(mips.sample(&t, uv, block) * shading + n);
+                    let v = mips.sample(&t, uv, block) * shading + n;
+                    cells.albedo.push(v);
+                    cells.colour.push([v; 3]);
                     cells.uv.push(uv);
                     cells.footprint.push(block);
                     cells.object.push(o as u32);
@@ -673,25 +706,29 @@ mod tests {
     fn a_texture_the_photo_does_not_show_is_farther_than_the_flat_albedo() {
         let size = 64;
         let bricks = library_texture("brick_wall", size);
-        let mips = LuminanceMips::new(size, &bricks);
-        let lum = |t: &[f32]| t.chunks(3).map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]).sum::<f32>();
-        let mean = |t: &[f32]| Vec3::splat(lum(t) / (size * size) as f32);
+        let mips = TexelMips::luminance(size, &bricks);
+        let mean = |t: &[f32]| {
+            Vec3::from_array(std::array::from_fn(|c| t.iter().skip(c).step_by(3).sum::<f32>() / (size * size) as f32))
+        };
         for (photo, want_below) in [("brick_wall", true), ("stucco", false)] {
             let shown = library_texture(photo, size);
-            let truth = LuminanceMips::new(size, &shown);
+            let truth = TexelMips::rgb(size, &shown);
             let t = TextureTransform { scale: [1.0; 2], rotation_deg: 0.0, offset: [0.3, 0.6] };
-            let mut cells = Cells { side: 4, albedo: vec![], uv: vec![], footprint: vec![], object: vec![] };
+            let mut cells =
+                Cells { side: 4, albedo: vec![], colour: vec![], uv: vec![], footprint: vec![], object: vec![] };
             for j in 0..50 {
                 for i in 0..50 {
                     let uv = [i as f64 * 0.02, j as f64 * 0.02];
-                    cells.albedo.push(truth.sample(&t, uv, 0.02));
+                    let colour = truth.sample_rgb(&t, uv, 0.02);
+                    cells.albedo.push(0.2126 * colour[0] + 0.7152 * colour[1] + 0.0722 * colour[2]);
+                    cells.colour.push(colour);
                     cells.uv.push(uv);
                     cells.footprint.push(0.02);
                     cells.object.push(0);
                 }
             }
             let (fit, _) = register(&cells, &mips, 1.0, 0.0, &RegistrationOptions::default()).unwrap();
-            let ratio = error_ratio(&cells, &mips, &fit, mean(&shown));
+            let ratio = error_ratio(&cells, &TexelMips::rgb(size, &bricks), &fit, mean(&shown));
             assert_eq!(ratio < 1.0, want_below, "{photo}: error ratio {ratio}");
         }
     }
@@ -714,10 +751,11 @@ mod tests {
     /// A photo without texture, or too few blocks, registers nothing.
     #[test]
     fn flat_or_tiny_segments_are_left_alone() {
-        let mips = LuminanceMips::new(64, &library_texture("brick_wall", 64));
+        let mips = TexelMips::luminance(64, &library_texture("brick_wall", 64));
         let flat = Cells {
             side: 4,
             albedo: vec![0.4; 400],
+            colour: vec![[0.4; 3]; 400],
             uv: (0..400).map(|i| [(i % 20) as f64 * 0.05, (i / 20) as f64 * 0.05]).collect(),
             footprint: vec![0.05; 400],
             object: vec![0; 400],
@@ -726,6 +764,7 @@ mod tests {
         let tiny = Cells {
             side: 4,
             albedo: vec![0.1, 0.5],
+            colour: vec![[0.1; 3], [0.5; 3]],
             uv: vec![[0.0; 2]; 2],
             footprint: vec![0.05; 2],
             object: vec![0; 2],
