@@ -305,8 +305,9 @@ pub fn texture_surfaces(
         let register = |scene: &mut Scene| {
             cells.as_ref().and_then(|cells| register_texture(scene, seg.material, albedo, cells, &opts.registration))
         };
+        let compare_unfitted = candidates.len() > 1 && cells.is_some() && opts.graph_fit.iters > 0;
         let unfitted = GraphFitOptions { iters: 0, ..opts.graph_fit.clone() };
-        let compare = if candidates.len() > 1 && cells.is_some() { &unfitted } else { &opts.graph_fit };
+        let compare = if compare_unfitted { &unfitted } else { &opts.graph_fit };
         let mut trials = vec![];
         for m in candidates {
             let mut scene = scene.clone();
@@ -326,7 +327,7 @@ pub fn texture_surfaces(
             })
             .collect();
         let mut kept = trials.swap_remove(k);
-        if !std::ptr::eq(compare, &opts.graph_fit) && opts.graph_fit.iters > 0 {
+        if compare_unfitted {
             let mut scene = scene.clone();
             let m = &kept.chosen;
             let graph_fit =
