@@ -31,7 +31,7 @@
 //!    albedo pixel by pixel is kept, its graph then fitted (step 5) and registered again: the descriptor ranks
 //!    but does not decide (real room11's brick walls ranked terrazzo, granite, checker tiles and a rug before
 //!    bricks, and registered bricks alone came closer than flat). The kept one is taken back where it is not
-//!    clearly closer than the flat albedo (`error_ratio` not below `max_error_ratio`, 0.95): the segment stays
+//!    clearly closer than the flat albedo (`error_ratio` not below `max_error_ratio`, 0.9): the segment stays
 //!    homogeneous.
 //!
 //! Every segment's crop, top matches and decision are returned (result.json keeps them as alternatives).
