@@ -2,7 +2,7 @@
 //! mask (`stages::material_segments`).
 //! Albedos from shading (`stages::albedo_division`): `divide_albedos(s, photo, segments, #{rounds,
 //! spp, tolerance, direct_spp})` and `light_scale_search(s, photo, segments, #{range, steps, rounds, spp, tolerance, direct_spp, downsample,
-//! per_channel, extend, resolution, ...})`, where
+//! per_channel, channel_min_gain, extend, resolution, ...})`, where
 //! `segments` maps a homogeneous material's name to the mask of the photo's pixels that show it. Both change
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
 //! `texture_surfaces(s, photo, segments, #{spp, top_k, colour_weight, min_contrast, min_crop, max_crop,
@@ -102,6 +102,7 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             "downsample" => o.downsample = option_number(what, k, v)?.max(1.0) as usize,
             "extend" => o.extend = option_number(what, k, v)?.max(0.0) as usize,
             "resolution" => o.resolution = option_number(what, k, v)? as f32,
+            "channel_min_gain" => o.channel_min_gain = option_number(what, k, v)?.max(0.0) as f32,
             "per_channel" => {
                 o.per_channel =
                     v.as_bool().map_err(|_| Error::Invalid(format!("{what}: 'per_channel' is true or false")))?
@@ -109,7 +110,7 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             other => {
                 return Err(Error::Invalid(format!(
                     "{what}: unknown option '{other}' (range, steps, rounds, spp, tolerance, direct_spp, \
-                     downsample, per_channel, extend, resolution, split_spp, split_rounds, split_downsample, tint_prior)"
+                     downsample, per_channel, channel_min_gain, extend, resolution, split_spp, split_rounds, split_downsample, tint_prior)"
                 )))
             }
         }

@@ -13,7 +13,8 @@
 //! transport and the division are per channel), so one render scores three factors at once, one per channel:
 //! a log grid over a range first, then per channel the grid goes on past an end while its best factor is
 //! there, and the interval beside its best is halved until the best's neighbours are within `resolution`;
-//! the choice is the parabola through the best and its neighbours. With `LightScaleOptions::split` each factor
+//! the choice is the parabola through the best and its neighbours, the channels' common best unless a
+//! channel's own is clearly lower (`per_channel_choice`). With `LightScaleOptions::split` each factor
 //! also refits how the light divides between the lamps (it depends on the scale through the bounced light), so
 //! the lights' level after a factor is the refit's, near but not exactly the factor times the start's.
 //! Albedos are clamped to 0.01..0.95, so a
@@ -263,6 +264,10 @@ pub struct LightScaleOptions {
     /// A factor per colour channel (white balance absorbed into the lights' colour), or one for all three
     /// (the lights keep their fitted colour; the albedos take the rest).
     pub per_channel: bool,
+    /// With a factor per channel, a channel takes its own best factor only where that lowers its error below
+    /// its error at the channels' common best by more than this fraction (`per_channel_choice`; 0: wherever
+    /// it is lower at all).
+    pub channel_min_gain: f32,
     /// Grid steps tried past either end of `range` while a channel's best factor is at that end.
     pub extend: usize,
     /// The search ends where the factors beside each channel's best are within this ratio of it (the grid's
@@ -291,6 +296,7 @@ impl Default for LightScaleOptions {
             direct_spp: 0,
             downsample: 8,
             per_channel: true,
+            channel_min_gain: 0.1,
             extend: 0,
             resolution: 1.19,
             split: None,
@@ -311,6 +317,11 @@ pub struct LightScale {
     pub standard_errors: Vec<[f64; 3]>,
     /// Per channel, the factor applied to every light's radiance.
     pub chosen: [f32; 3],
+    /// The factor that fits the three channels together best; with a factor per channel, how much lower each
+    /// channel's error is at its own best than there, as a fraction (it takes its own factor past
+    /// `LightScaleOptions::channel_min_gain`).
+    pub common: f32,
+    pub channel_gain: Option<[f32; 3]>,
 }
 
 /// The squared distance between a render and the photo after k x k box downsampling, per channel, from two
@@ -437,8 +448,8 @@ impl ScaleScoring<'_> {
 }
 
 /// One channel's (or, with one factor for all three, the three's) view of the search: the distinct factors
-/// it tried, in ascending order, with their mean error (a factor scored again, while the other channels go
-/// on, is averaged).
+/// it tried, in ascending order, with their mean error and how many renders scored it (a factor scored again,
+/// while the other channels go on, is averaged).
 struct ChannelCurve {
     points: Vec<(f32, f64, usize)>,
 }
@@ -456,6 +467,21 @@ impl ChannelCurve {
         }
         points.sort_by(|a, b| a.0.total_cmp(&b.0));
         ChannelCurve { points }
+    }
+
+    /// The error at factor `f`, linear in log factor between the factors tried either side of it; None
+    /// outside what was tried.
+    fn at(&self, f: f32) -> Option<f64> {
+        let x = f.ln();
+        let n = self.points.len();
+        (0..n).find_map(|k| {
+            let j = (k + 1).min(n - 1);
+            let (a, b) = (self.points[k].0.ln(), self.points[j].0.ln());
+            (x >= a - 1e-5 && x <= b + 1e-5).then(|| {
+                let t = if b > a { f64::from(((x - a) / (b - a)).clamp(0.0, 1.0)) } else { 0.0 };
+                self.points[k].1 * (1.0 - t) + self.points[j].1 * t
+            })
+        })
     }
 
     fn best(&self) -> usize {
@@ -500,6 +526,48 @@ impl ChannelCurve {
         let v = if den < 0.0 { x1 - 0.5 * num / den } else { x1 };
         v.clamp(x0, x2).exp() as f32
     }
+}
+
+/// Per channel, the factor chosen where each channel was searched on its own: the channels' common best (the
+/// parabola through the sum of their errors, each interpolated in log factor over what it tried, at the
+/// factors all three tried around) and, per channel, its own best (`ChannelCurve::chosen`) where that lowers
+/// the channel's error below its error at the common one by more than the fraction `min_gain`, else the
+/// common one. Returns the choice, the common factor and per channel that gain. Where the lights explain the
+/// photo, a channel's curve has a sharp minimum (the known-geometry room's coloured lights: green and blue
+/// 15-26 % lower at their own); where their pattern is off, the error is the misfit's and each channel's
+/// minimum a few percent of it, a colour the albedos then take: real room11's lights went [1.67, 0.81, 0.62]
+/// (red over blue 2.7) on gains of 1.5-6.4 %, and its albedos turned blue-green (78 % off).
+fn per_channel_choice(tried: &[ScalePoint], min_gain: f32) -> ([f32; 3], f32, [f32; 3]) {
+    let curves: Vec<ChannelCurve> = (0..3).map(|c| ChannelCurve::new(tried, &[c])).collect();
+    let lo = curves.iter().map(|c| c.points[0].0).fold(0.0f32, f32::max);
+    let hi = curves.iter().map(|c| c.points[c.points.len() - 1].0).fold(f32::INFINITY, f32::min);
+    let mut factors: Vec<f32> =
+        curves.iter().flat_map(|c| c.points.iter().map(|p| p.0)).filter(|&f| f >= lo && f <= hi).collect();
+    factors.sort_by(f32::total_cmp);
+    factors.dedup_by(|a, b| (*a / *b - 1.0).abs() < 1e-5);
+    let points: Vec<(f32, f64, usize)> = factors
+        .iter()
+        .filter_map(|&f| {
+            let at: Vec<f64> = curves.iter().map(|c| c.at(f)).collect::<Option<_>>()?;
+            Some((f, at.iter().sum(), 1))
+        })
+        .collect();
+    if points.is_empty() {
+        let own: [f32; 3] = std::array::from_fn(|c| curves[c].chosen());
+        return (own, own[1], [f32::INFINITY; 3]);
+    }
+    let common = ChannelCurve { points }.chosen();
+    let mut chosen = [common; 3];
+    let mut gain = [0.0f32; 3];
+    for (c, curve) in curves.iter().enumerate() {
+        let best = curve.points[curve.best()].1;
+        let Some(at_common) = curve.at(common) else { continue };
+        gain[c] = ((at_common - best) / best.abs().max(1e-30)) as f32;
+        if gain[c] > min_gain {
+            chosen[c] = curve.chosen();
+        }
+    }
+    (chosen, common, gain)
 }
 
 /// The factors (per channel) of the search's next render after `tried`: what each channel group wants
@@ -558,7 +626,14 @@ pub fn search_light_scale(
         recorded_photo: photo.iter().zip(&recorded_rgb).map(|(v, u)| v * u).collect(),
         recorded_rgb,
     };
-    let mut out = LightScale { factors: vec![], errors: vec![], standard_errors: vec![], chosen: [1.0; 3] };
+    let mut out = LightScale {
+        factors: vec![],
+        errors: vec![],
+        standard_errors: vec![],
+        chosen: [1.0; 3],
+        common: 1.0,
+        channel_gain: None,
+    };
     if scoring.lights.is_empty() {
         return Ok(out);
     }
@@ -639,11 +714,12 @@ pub fn search_light_scale(
     out.factors = tried.iter().map(|p| p.factor.to_array()).collect();
     out.errors = tried.iter().map(|p| p.errors).collect();
     out.standard_errors = tried.iter().map(|p| p.standard_errors).collect();
-    for g in &groups {
-        let v = ChannelCurve::new(&tried, g).chosen();
-        for &k in g {
-            out.chosen[k] = v;
-        }
+    if opts.per_channel {
+        let (chosen, common, gain) = per_channel_choice(&tried, opts.channel_min_gain);
+        (out.chosen, out.common, out.channel_gain) = (chosen, common, Some(gain));
+    } else {
+        out.common = ChannelCurve::new(&tried, &[0, 1, 2]).chosen();
+        out.chosen = [out.common; 3];
     }
     // The chosen scale starts from the albedos of the factor tried nearest it (per channel), rescaled.
     let chosen = Vec3::from_array(out.chosen);
@@ -740,5 +816,42 @@ mod tests {
             // One render's score: 0.01 + 0.09 / 4 (the variance of a 4-pixel mean).
             assert!(one[c] > 0.025, "one render: {}", one[c]);
         }
+    }
+
+    /// Red has a sharp minimum at a factor of 2 (its error 0.001 + 0.01 per log-factor squared), green and
+    /// blue are nearly flat (0.001 + 0.0001 per log-factor squared, minimum at 0.7): red takes its own factor,
+    /// green and blue the three channels' common best; with no minimum gain each channel its own.
+    #[test]
+    fn a_channel_leaves_the_common_factor_only_where_its_own_is_clearly_better() {
+        let error = |f: f32, at: f32, k: f64| 0.001 + k * f64::from((f / at).ln()).powi(2);
+        let point = |f: [f32; 3]| ScalePoint {
+            factor: Vec3::from(f),
+            errors: [error(f[0], 2.0, 0.01), error(f[1], 0.7, 1e-4), error(f[2], 0.7, 1e-4)],
+            standard_errors: [1e-4; 3],
+            albedos: vec![],
+            radiances: vec![],
+        };
+        // The grid, then each channel past its end and into its best's interval, as the search goes.
+        let tried: Vec<ScalePoint> = [
+            [1.0, 1.0, 1.0],
+            [1.414, 1.414, 1.414],
+            [0.707, 0.707, 0.707],
+            [2.0, 0.5, 0.5],
+            [2.828, 0.595, 0.595],
+            [1.682, 0.841, 0.841],
+            [2.378, 0.595, 0.595],
+        ]
+        .map(point)
+        .into_iter()
+        .collect();
+        let (chosen, common, gain) = per_channel_choice(&tried, 0.1);
+        // The common best is where all three tried (0.707..1.414): the red's slope puts it at the top end.
+        assert!((common - 1.414).abs() < 1e-3, "common {common}");
+        assert!((chosen[0] - 2.0).abs() < 0.1, "red keeps its own: {chosen:?}");
+        assert!(chosen[1] == common && chosen[2] == common, "green and blue take the common: {chosen:?}");
+        // Red: 0.0022 at the common factor over 0.001 at its own; green and blue 5 %.
+        assert!(gain[0] > 1.0 && gain[1] < 0.06 && gain[2] < 0.06, "{gain:?}");
+        let (own, _, _) = per_channel_choice(&tried, 0.0);
+        assert!(own[1] < 0.9 && own[2] < 0.9, "at 0 each channel its own minimum: {own:?}");
     }
 }
