@@ -90,8 +90,8 @@ fn a_light_scale_at_the_range_end_is_reported() {
 /// 10-20 cm (benchmarks/README.md, "Where the known-geometry lights' 11-12 cm comes from"). Before the
 /// candidates were chosen again under divided albedos (one choice under the start's grey 0.5): 2 lights, the
 /// brighter 50 cm off, the dimmer not found (its light went to the panel behind the camera, 1.5 m away), RMSE
-/// 7.1 %, albedos within 21 %; chosen three times without the merge: 4 lights, the brighter fitted as two panels 1 m apart on either side of it, 27-30 cm off, RMSE 2.5 %,
-/// albedos within 4 %.
+/// 7.1 %, albedos within 21 %; chosen three times without the merge: 4 lights, the brighter fitted as two
+/// panels 1 m apart on either side of it, 27-30 cm off, RMSE 2.5 %, albedos within 4 %.
 #[test]
 fn known_geometry_without_its_lights_finds_them() {
     let dir = psdr_tests::temp_dir("material-light-find");
