@@ -122,3 +122,52 @@ fn a_division_ends_once_its_ratios_are_within_the_tolerance() {
     assert!((2..12).contains(&rounds), "{rounds} rounds from grey");
     assert!(error < 0.04, "{error}");
 }
+
+/// The light scale scored from renders kept by bounce count (`bounce_spp`): the light room's lamps dimmed to
+/// 0.7 and its albedos divided under them (so they come out too bright and reproduce each segment's mean
+/// colour), the search must find the factor 1 / 0.7 that puts both back, from one set of bounce renders, and
+/// leave the albedos near the truth's. Interreflections are what tell the factor apart (the walls at 0.8 and
+/// the ceiling at 0.85 bounce most of this room's light), so this is the search's own signal, not a check
+/// on a direct-light scene where every factor fits. Measured: 1.43 and the albedos within 1.1 % in three
+/// passes (one pass 1.38 and 2.4 %: the model is exact only where it was rendered); the render-per-factor
+/// search (`bounce_spp: 0`) 1.44 and 1.1 %, three times as long.
+#[test]
+fn the_light_scale_from_renders_kept_by_bounce() {
+    use psdr::stages::{search_light_scale, LightScaleOptions};
+    let (truth, photo, segments) = light_room();
+    let mut dimmed = truth.clone();
+    for o in &mut dimmed.objects {
+        if let Some(e) = &mut o.emitter {
+            e.radiance *= 0.7;
+        }
+    }
+    dimmed.settings = RenderSettings { spp: 16, max_depth: 16, rr_depth: 3, seed: 1 };
+    let division = Division { rounds: 6, spp: 64, tolerance: 0.01, ..Default::default() };
+    divide_albedos(&mut CpuBackend, &mut dimmed, &photo, &segments, &division).unwrap();
+    let before = worst_error(&dimmed, &truth, &segments);
+    let opts = LightScaleOptions {
+        range: (0.707, 1.414),
+        steps: 3,
+        extend: 4,
+        spp: 64,
+        rounds: 3,
+        tolerance: 0.01,
+        downsample: 2,
+        bounce_spp: 64,
+        ..Default::default()
+    };
+    let mut scene = dimmed.clone();
+    let found = search_light_scale(&mut CpuBackend, &mut scene, &photo, &segments, &opts).unwrap();
+    let after = worst_error(&scene, &truth, &segments);
+    println!("chosen {:?} (common {}), worst albedo {before} -> {after}", found.chosen, found.common);
+    for s in &segments {
+        println!(
+            "{}: {:?} (truth {:?})",
+            scene.materials[s.material].name, scene.materials[s.material].albedo, truth.materials[s.material].albedo
+        );
+    }
+    for c in 0..3 {
+        assert!((found.chosen[c] * 0.7 - 1.0).abs() < 0.08, "channel {c}: {:?} for {}", found.chosen, 1.0 / 0.7);
+    }
+    assert!(after < 0.06 && after < before, "worst albedo {before} -> {after}");
+}

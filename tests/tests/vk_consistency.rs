@@ -195,7 +195,7 @@ fn large_mesh_several_lights_exr_texture_and_deep_paths_agree() {
 #[test]
 fn light_scale_search_on_the_device_matches_the_cpu() {
     use psdr::scene::Color;
-    use psdr::stages::{search_light_scale, LightFitOptions, LightScaleOptions, Segment};
+    use psdr::stages::{LightFitOptions, LightScaleOptions, Segment};
     let Some(mut vk) = vk() else { return };
     // A second, warmer lamp across the room: two lights whose split the search refits.
     let two_lamps = |mut s: Scene| {
@@ -249,13 +249,30 @@ fn light_scale_search_on_the_device_matches_the_cpu() {
         // The lights' split refitted at each factor: the unit renders and their fit on each backend too.
         split: Some(LightFitOptions { spp: 16, downsample: 4, ..Default::default() }),
         split_rounds: 1,
+        ..Default::default()
     };
-    let (mut on_cpu, mut on_vk) = (start.clone(), start);
-    let a = search_light_scale(&mut CpuBackend, &mut on_cpu, &photo.radiance, &segments, &opts).unwrap();
-    let b = search_light_scale(&mut vk, &mut on_vk, &photo.radiance, &segments, &opts).unwrap();
-    psdr_tests::assert_no_validation_errors(&vk);
+    // The render-per-factor search, then the one from renders kept by bounce (those renders on the CPU either
+    // way, the divisions and the split's unit renders on each backend).
+    for opts in [opts.clone(), LightScaleOptions { bounce_spp: 8, bounce_l1: true, ..opts }] {
+        scale_search_agrees(&mut vk, &start, &photo.radiance, &segments, &opts);
+    }
+}
+
+fn scale_search_agrees(
+    vk: &mut VkBackend,
+    start: &Scene,
+    photo: &[f32],
+    segments: &[psdr::stages::Segment],
+    opts: &psdr::stages::LightScaleOptions,
+) {
+    use psdr::scene::Color;
+    use psdr::stages::search_light_scale;
+    let (mut on_cpu, mut on_vk) = (start.clone(), start.clone());
+    let a = search_light_scale(&mut CpuBackend, &mut on_cpu, photo, segments, opts).unwrap();
+    let b = search_light_scale(vk, &mut on_vk, photo, segments, opts).unwrap();
+    psdr_tests::assert_no_validation_errors(vk);
     eprintln!("chosen scale cpu {:?} vk {:?}", a.chosen, b.chosen);
-    let tol = psdr_tests::device_agreement(&vk);
+    let tol = psdr_tests::device_agreement(vk);
     for c in 0..3 {
         let rel = (a.chosen[c] - b.chosen[c]).abs() / a.chosen[c];
         assert!(
@@ -265,7 +282,7 @@ fn light_scale_search_on_the_device_matches_the_cpu() {
             b.chosen[c]
         );
     }
-    for s in &segments {
+    for s in segments {
         let (Color::Constant(x), Color::Constant(y)) =
             (on_cpu.materials[s.material].albedo, on_vk.materials[s.material].albedo)
         else {

@@ -102,6 +102,12 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             "downsample" => o.downsample = option_number(what, k, v)?.max(1.0) as usize,
             "extend" => o.extend = option_number(what, k, v)?.max(0.0) as usize,
             "resolution" => o.resolution = option_number(what, k, v)? as f32,
+            "bounce_spp" => o.bounce_spp = option_number(what, k, v)?.max(0.0) as u32,
+            "bounce_step" => o.bounce_step = option_number(what, k, v)? as f32,
+            "bounce_l1" => {
+                o.bounce_l1 = v.as_bool().map_err(|_| Error::Invalid(format!("{what}: 'bounce_l1' is true or false")))?
+            }
+            "bounce_passes" => o.bounce_passes = option_number(what, k, v)?.max(1.0) as usize,
             "channel_min_gain" => o.channel_min_gain = option_number(what, k, v)?.max(0.0) as f32,
             "per_channel" => {
                 o.per_channel =
@@ -110,7 +116,7 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             other => {
                 return Err(Error::Invalid(format!(
                     "{what}: unknown option '{other}' (range, steps, rounds, spp, tolerance, direct_spp, \
-                     downsample, per_channel, channel_min_gain, extend, resolution, split_spp, split_rounds, split_downsample, tint_prior)"
+                     downsample, per_channel, channel_min_gain, extend, resolution, bounce_spp, bounce_step, bounce_passes, bounce_l1, split_spp, split_rounds, split_downsample, tint_prior)"
                 )))
             }
         }

@@ -1,10 +1,12 @@
 //! The material stage: which photo pixels show which material (`material_segments`), albedos divided out of
-//! the shading and the lights' common scale (`albedo_division`), the procedural library searched on a crop
+//! the shading and the lights' common scale (`albedo_division`, or
+//! scored from renders kept by bounce count: `light_scale_bounces`), the procedural library searched on a crop
 //! (`material_search`, through `texture_view`) and fitted to it (`graph_fit`), and applied to the surfaces that
 //! show a texture (`surface_textures`), registered on the surface's pixels (`texture_registration`).
 
 mod albedo_division;
 mod graph_fit;
+mod light_scale_bounces;
 mod material_search;
 mod material_segments;
 mod offset_correlation;
