@@ -2,6 +2,7 @@
 
 pub mod bsdf;
 pub mod bvh;
+mod bvh_cache;
 pub mod camera;
 pub mod cpu;
 pub mod frame;

@@ -113,7 +113,7 @@ impl SceneData {
         if !tris.is_empty() {
             let (nodes, order) = match previous.filter(|p| p.has_triangles_at(&tris)) {
                 Some(p) => (p.nodes.clone(), p.triangle_source.clone()),
-                None => {
+                None => super::bvh_cache::cached_bvh(&tris, || {
                     let bvh = build_bvh(&tris);
                     let depth = tree_depth(&bvh.nodes);
                     if depth > BVH_STACK_SIZE {
@@ -121,8 +121,8 @@ impl SceneData {
                             "scene: BVH depth {depth} exceeds the traversal stack ({BVH_STACK_SIZE})"
                         )));
                     }
-                    (bvh.nodes, bvh.primitive_indices)
-                }
+                    Ok((bvh.nodes, bvh.primitive_indices))
+                })?,
             };
             // Reorder triangles so leaves index them directly (no indirection in the kernels). Without spatial
             // splits every triangle sits in exactly one leaf: the order is a permutation.
