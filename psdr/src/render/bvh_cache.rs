@@ -6,7 +6,7 @@
 //! its tree and order instead; the build is deterministic, so the scene data is the same either way.
 
 use super::layout::{BvhNode, TriangleGeom};
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 
 /// Triangle sets kept: the current geometry, and the few a search moves between (a trial and its base).
 const ENTRIES: usize = 4;
@@ -16,8 +16,8 @@ type Corners = [u32; 9];
 
 struct Entry {
     triangles: Vec<Corners>,
-    nodes: Arc<Vec<BvhNode>>,
-    order: Arc<Vec<u32>>,
+    nodes: Vec<BvhNode>,
+    order: Vec<u32>,
 }
 
 /// Builds, most recently used last.
@@ -41,7 +41,7 @@ impl BvhCache {
             |e: &Entry| e.triangles.len() == tris.len() && e.triangles.iter().zip(tris).all(|(k, t)| *k == corners(t));
         let i = self.entries.iter().position(same)?;
         let entry = self.entries.remove(i);
-        let found = (entry.nodes.to_vec(), entry.order.to_vec());
+        let found = (entry.nodes.clone(), entry.order.clone());
         self.entries.push(entry);
         Some(found)
     }
@@ -52,7 +52,7 @@ impl BvhCache {
             self.entries.remove(0);
         }
         let triangles = tris.iter().map(corners).collect();
-        self.entries.push(Entry { triangles, nodes: Arc::new(nodes.to_vec()), order: Arc::new(order.to_vec()) });
+        self.entries.push(Entry { triangles, nodes: nodes.to_vec(), order: order.to_vec() });
     }
 
     /// The BVH nodes and the triangle order (leaf order to scene order) of `tris`: a cached build's when one
