@@ -404,3 +404,37 @@ fn a_ceiling_light_in_view_becomes_a_light_where_it_shows() {
     let l = room.objects.iter().find(|o| o.name == names[0]).unwrap();
     assert_eq!((l.pose.translation, l.pose.scale), (pose.translation, pose.scale), "{placed:?}");
 }
+
+/// A ceiling light the frame cuts: the same panel with the camera pitched down so its near part leaves the
+/// top of the photo. A clipped patch at the border may also be a lit white ceiling, so it becomes a candidate
+/// the fit may remove (`light_edge_0`, not a visible light), over the part in view: inside the true panel,
+/// reaching its far edge. The photo needs it (the grid has no candidate in view, and its clipped pixels are a
+/// lower bound on the render), so the fit keeps it.
+#[test]
+fn a_ceiling_light_cut_by_the_frame_becomes_a_candidate_the_fit_keeps() {
+    use psdr::stages::{add_visible_ceiling_lights, init_lights, is_visible_light, LightInitOptions};
+    let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.3, 1.5, 2.6), yaw: 5.0, pitch: -5.0, fov: 60.0 };
+    let (truth, _) = room_scene(&r, &[], false, 128, 96);
+    let f = render_cpu(&SceneData::build(&truth).unwrap(), &truth.settings, &|_, _| {});
+    let photo: Vec<f32> = f.radiance.iter().map(|v| v.min(1.0)).collect();
+    let mut room = room_estimate_scene(&truth, &r, r.h, true);
+    let grid = init_lights(&mut room, &LightInitOptions::default());
+    let names = add_visible_ceiling_lights(&mut room, &photo, &f.depth, None, 6);
+    assert_eq!(names, ["light_edge_0"], "one cut panel (the grid had {grid:?})");
+    assert!(!is_visible_light(&names[0]), "a candidate, not a light the photo is known to show");
+    let l = room.objects.iter().find(|o| o.name == names[0]).unwrap();
+    let (lo, hi) = l.parts[0]
+        .positions
+        .iter()
+        .map(|p| l.pose.matrix().transform_point3(*p))
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(p), b.max(p)));
+    eprintln!("edge light {lo} .. {hi}");
+    assert!(lo.x > -0.65 && hi.x < 0.65 && lo.z > -0.65 && hi.z < 0.65, "inside the true panel: {lo} .. {hi}");
+    assert!((lo.z + 0.6).abs() < 0.05, "reaches the panel's far edge: {lo}");
+    assert!(hi.z < 0.5, "the part in view only: {hi}");
+    let lights: Vec<String> = grid.iter().chain(&names).cloned().collect();
+    let opts = LightFitOptions { spp: 64, downsample: 8, ..Default::default() };
+    let fit = fit_lights(&mut CpuBackend, &room, &lights, &photo, &[], &opts).unwrap();
+    let k = fit.names.iter().position(|n| n == &names[0]).unwrap();
+    assert!(fit.kept[k], "the fit keeps the cut panel: {fit:?}");
+}

@@ -7,7 +7,12 @@
 //! the ceiling plane where the depth says, or the depth is missing), that no furniture instance covers and the
 //! frame does not cut becomes an emissive rectangle 1 cm under the ceiling over the range of its pixels'
 //! points, facing down, radiance 1 (the light fit scales it). Named `light_panel_K`; like a window the photo
-//! shows, the fits never remove it and the placement leaves it where it is.
+//! shows, the fits never remove it and the placement leaves it where it is. A patch the frame cuts is either a
+//! light partly in view or a brightly lit white ceiling clipping there (real room01's strip of ceiling above a
+//! window), so it becomes a candidate like the grid's (`light_edge_K`, over the part in view): the fit removes
+//! it where the photo does not need it, and the placement may move and resize it. Left out, nothing could
+//! light those pixels: the grid leaves out every place in view (real room10's ceiling light in the photo's
+//! corner was matched only while a grid candidate happened to be moved next to it).
 
 use crate::base::{connected_regions, Intrinsics};
 use crate::scene::{rectangle_mesh, Emitter, Material, Object, Pose, Scene};
@@ -87,21 +92,21 @@ pub fn add_visible_ceiling_lights(
         .collect();
     // Connected patches (4-neighbours) of such pixels.
     let on: Vec<bool> = on_ceiling.iter().map(Option::is_some).collect();
-    // A patch that reaches the image's border is left out: it may be a light cut by the frame, but a brightly
-    // lit white ceiling clips there too (real room01's strip of ceiling above a window became a panel the fit
-    // gave no light), and a light in full view is a patch with ceiling all round it.
+    // A light in full view is a patch with ceiling all round it; one that reaches the image's border may be a
+    // light cut by the frame or a lit white ceiling clipping there (a candidate, not a visible light).
     let inside = |p: usize| (1..w - 1).contains(&(p % w)) && (1..h - 1).contains(&(p / w));
-    let patches: Vec<Vec<Vec3>> = connected_regions(&on, w)
+    let patches: Vec<(bool, Vec<Vec3>)> = connected_regions(&on, w)
         .into_iter()
-        .filter(|r| on[r[0]] && r.iter().all(|&p| inside(p)))
-        .map(|r| r.iter().filter_map(|&p| on_ceiling[p]).collect())
+        .filter(|r| on[r[0]])
+        .map(|r| (r.iter().all(|&p| inside(p)), r.iter().filter_map(|&p| on_ceiling[p]).collect()))
         .collect();
     let material = scene.material_index("light").unwrap_or_else(|| {
         scene.materials.push(Material::diffuse("light", Vec3::splat(0.8)));
         scene.materials.len() - 1
     });
     let mut names = vec![];
-    for points in patches.into_iter().filter(|p| p.len() >= min_pixels.max(4)) {
+    let (mut panels, mut edges) = (0, 0);
+    for (in_view, points) in patches.into_iter().filter(|p| p.1.len() >= min_pixels.max(4)) {
         // The 2-98 % range of the pixels' points, not widened as for windows: a light's edge pixels clip too (a
         // tenth of its radiance is already white), so the patch reaches past the light by up to a pixel's
         // footprint, which at a grazing view of the ceiling is several centimetres (the full range made a
@@ -116,7 +121,13 @@ pub fn add_visible_ceiling_lights(
         let (sx, sz) = ((x1 - x0).max(0.05), (z1 - z0).max(0.05));
         let mut part = rectangle_mesh(sx, sz);
         part.material = material;
-        let name = format!("light_panel_{}", names.len());
+        let name = if in_view {
+            panels += 1;
+            format!("light_panel_{}", panels - 1)
+        } else {
+            edges += 1;
+            format!("light_edge_{}", edges - 1)
+        };
         scene.objects.push(Object {
             name: name.clone(),
             parts: vec![part],
