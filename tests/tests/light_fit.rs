@@ -361,6 +361,31 @@ fn an_unseen_ceiling_is_placed_by_the_light_it_throws() {
     assert!((found.start - 3.3).abs() < 1e-5);
 }
 
+/// The test room's 1.2 m ceiling panel at the ceiling's centre, photographed (8-bit: clipped at 1) with the
+/// camera pitched `pitch` degrees; the room estimate with the candidate grid (their names) and the lights
+/// `add_visible_ceiling_lights` adds to it (their names), and the photo.
+fn ceiling_panel_photo(pitch: f32) -> (RoomSpec, psdr::scene::Scene, Vec<String>, Vec<String>, Vec<f32>) {
+    use psdr::stages::{add_visible_ceiling_lights, init_lights, LightInitOptions};
+    let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.3, 1.5, 2.6), yaw: 5.0, pitch, fov: 60.0 };
+    let (truth, _) = room_scene(&r, &[], false, 128, 96);
+    let f = render_cpu(&SceneData::build(&truth).unwrap(), &truth.settings, &|_, _| {});
+    let photo: Vec<f32> = f.radiance.iter().map(|v| v.min(1.0)).collect();
+    let mut room = room_estimate_scene(&truth, &r, r.h, true);
+    let grid = init_lights(&mut room, &LightInitOptions::default());
+    let names = add_visible_ceiling_lights(&mut room, &photo, &f.depth, None, 6);
+    (r, room, grid, names, photo)
+}
+
+/// World-space bounds of the light `name` of `scene`.
+fn light_bounds(scene: &psdr::scene::Scene, name: &str) -> (Vec3, Vec3) {
+    let l = scene.objects.iter().find(|o| o.name == name).unwrap();
+    l.parts[0]
+        .positions
+        .iter()
+        .map(|p| l.pose.matrix().transform_point3(*p))
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(p), b.max(p)))
+}
+
 /// A ceiling light the photo shows becomes an area light where its pixels are: the test room's 1.2 m panel at
 /// the ceiling's centre, in view and at the 8-bit photo's white, is found by `add_visible_ceiling_lights` with
 /// its centre and size within 5 cm (measured 1.19 x 1.20 m, centre 1 cm off), facing down, on the room
@@ -368,21 +393,11 @@ fn an_unseen_ceiling_is_placed_by_the_light_it_throws() {
 /// there (the camera sees that place), and the light placement leaves it where it is.
 #[test]
 fn a_ceiling_light_in_view_becomes_a_light_where_it_shows() {
-    use psdr::stages::{add_visible_ceiling_lights, init_lights, refine_light_placement, LightInitOptions};
-    let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.3, 1.5, 2.6), yaw: 5.0, pitch: 10.0, fov: 60.0 };
-    let (truth, _) = room_scene(&r, &[], false, 128, 96);
-    let f = render_cpu(&SceneData::build(&truth).unwrap(), &truth.settings, &|_, _| {});
-    let photo: Vec<f32> = f.radiance.iter().map(|v| v.min(1.0)).collect();
-    let mut room = room_estimate_scene(&truth, &r, r.h, true);
-    let grid = init_lights(&mut room, &LightInitOptions::default());
-    let names = add_visible_ceiling_lights(&mut room, &photo, &f.depth, None, 6);
+    use psdr::stages::refine_light_placement;
+    let (r, mut room, grid, names, photo) = ceiling_panel_photo(10.0);
     assert_eq!(names, ["light_panel_0"], "one panel (the grid had {grid:?})");
     let l = room.objects.iter().find(|o| o.name == names[0]).unwrap();
-    let (lo, hi) = l.parts[0]
-        .positions
-        .iter()
-        .map(|p| l.pose.matrix().transform_point3(*p))
-        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(p), b.max(p)));
+    let (lo, hi) = light_bounds(&room, &names[0]);
     eprintln!("panel {lo} .. {hi}");
     assert!(((lo + hi) / 2.0 - Vec3::new(0.0, r.h - 0.01, 0.0)).length() < 0.05, "centre {}", (lo + hi) / 2.0);
     assert!(((hi.x - lo.x) - 1.2).abs() < 0.05 && ((hi.z - lo.z) - 1.2).abs() < 0.05, "size {}", hi - lo);
@@ -412,22 +427,10 @@ fn a_ceiling_light_in_view_becomes_a_light_where_it_shows() {
 /// lower bound on the render), so the fit keeps it.
 #[test]
 fn a_ceiling_light_cut_by_the_frame_becomes_a_candidate_the_fit_keeps() {
-    use psdr::stages::{add_visible_ceiling_lights, init_lights, is_visible_light, LightInitOptions};
-    let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.3, 1.5, 2.6), yaw: 5.0, pitch: -5.0, fov: 60.0 };
-    let (truth, _) = room_scene(&r, &[], false, 128, 96);
-    let f = render_cpu(&SceneData::build(&truth).unwrap(), &truth.settings, &|_, _| {});
-    let photo: Vec<f32> = f.radiance.iter().map(|v| v.min(1.0)).collect();
-    let mut room = room_estimate_scene(&truth, &r, r.h, true);
-    let grid = init_lights(&mut room, &LightInitOptions::default());
-    let names = add_visible_ceiling_lights(&mut room, &photo, &f.depth, None, 6);
+    let (_, room, grid, names, photo) = ceiling_panel_photo(-5.0);
     assert_eq!(names, ["light_edge_0"], "one cut panel (the grid had {grid:?})");
-    assert!(!is_visible_light(&names[0]), "a candidate, not a light the photo is known to show");
-    let l = room.objects.iter().find(|o| o.name == names[0]).unwrap();
-    let (lo, hi) = l.parts[0]
-        .positions
-        .iter()
-        .map(|p| l.pose.matrix().transform_point3(*p))
-        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(p), b.max(p)));
+    assert!(!psdr::stages::is_visible_light(&names[0]), "a candidate, not a light the photo is known to show");
+    let (lo, hi) = light_bounds(&room, &names[0]);
     eprintln!("edge light {lo} .. {hi}");
     assert!(lo.x > -0.65 && hi.x < 0.65 && lo.z > -0.65 && hi.z < 0.65, "inside the true panel: {lo} .. {hi}");
     assert!((lo.z + 0.6).abs() < 0.05, "reaches the panel's far edge: {lo}");
