@@ -22,4 +22,4 @@ pub use evaluator::{Evaluator, MapKind};
 pub use graph::{Graph, ParamInfo, ParamKind, Params};
 pub use image::Image;
 pub use render_maps::{RenderGrads, RenderMaps};
-pub use texture_transform::{TextureTransform, TextureView, TransformGrad};
+pub use texture_transform::{PreparedTransform, TextureTransform, TextureView, TransformGrad};

@@ -59,22 +59,34 @@ impl TextureView<'_> {
         let x = uv[0] * self.width as f64 - 0.5;
         let y = (1.0 - uv[1]) * self.height as f64 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
-        let wrap = |i: f64, n: usize| (i.rem_euclid(n as f64)) as usize % n;
-        let (xa, xb) = (wrap(x0, self.width), wrap(x0 + 1.0, self.width));
-        let (ya, yb) = (wrap(y0, self.height), wrap(y0 + 1.0, self.height));
+        // Integer wrap: f64 `rem_euclid` is a software fmod, a tenth of the texture search's time.
+        let wrap = |i: i64, n: usize| i.rem_euclid(n as i64) as usize;
+        let (xi, yi) = (x0 as i64, y0 as i64);
+        let (xa, xb) = (wrap(xi, self.width), wrap(xi + 1, self.width));
+        let (ya, yb) = (wrap(yi, self.height), wrap(yi + 1, self.height));
         let at = |x: usize, y: usize| (y * self.width + x) * self.channels;
         Footprint { idx: [at(xa, ya), at(xb, ya), at(xa, yb), at(xb, yb)], fx: x - x0, fy: y - y0 }
     }
 }
 
-impl TextureTransform {
-    fn rotation(&self) -> (f64, f64) {
-        self.rotation_deg.to_radians().sin_cos()
+/// A [`TextureTransform`] with its rotation's sine and cosine computed once, for loops of lookups through one
+/// transform (per lookup they were a seventh of the texture search's time).
+#[derive(Clone, Copy, Debug)]
+pub struct PreparedTransform {
+    scale: [f64; 2],
+    sin: f64,
+    cos: f64,
+    offset: [f64; 2],
+}
+
+impl PreparedTransform {
+    pub fn scale(&self) -> [f64; 2] {
+        self.scale
     }
 
     /// The transformed uv.
     pub fn apply(&self, uv: [f64; 2]) -> [f64; 2] {
-        let (s, c) = self.rotation();
+        let (s, c) = (self.sin, self.cos);
         let (a, b) = (self.scale[0] * uv[0], self.scale[1] * uv[1]);
         [c * a - s * b + self.offset[0], s * a + c * b + self.offset[1]]
     }
@@ -86,6 +98,28 @@ impl TextureTransform {
         for (ch, o) in out.iter_mut().enumerate().take(tex.channels) {
             *o = (0..4).map(|k| w[k] * tex.texels[fp.idx[k] + ch] as f64).sum();
         }
+    }
+}
+
+impl TextureTransform {
+    fn rotation(&self) -> (f64, f64) {
+        self.rotation_deg.to_radians().sin_cos()
+    }
+
+    /// The same transform with its rotation's sine and cosine computed.
+    pub fn prepared(&self) -> PreparedTransform {
+        let (sin, cos) = self.rotation();
+        PreparedTransform { scale: self.scale, sin, cos, offset: self.offset }
+    }
+
+    /// The transformed uv.
+    pub fn apply(&self, uv: [f64; 2]) -> [f64; 2] {
+        self.prepared().apply(uv)
+    }
+
+    /// Bilinear lookup of every channel at the transformed `uv` into `out` (len = channels).
+    pub fn lookup(&self, tex: &TextureView, uv: [f64; 2], out: &mut [f64]) {
+        self.prepared().lookup(tex, uv, out)
     }
 
     /// Adds dL/d(texels) into `d_texels` (same layout as `tex.texels`; `None` skips them) and dL/d(transform)

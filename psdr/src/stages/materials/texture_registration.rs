@@ -27,7 +27,7 @@ use crate::render::layout::SHADING_HAS_UVS;
 use crate::render::SceneData;
 use crate::scene::{Scene, UvTransform};
 use glam::{Vec2, Vec3};
-use psdr_materials::{TextureTransform, TextureView};
+use psdr_materials::{PreparedTransform, TextureTransform, TextureView};
 use rayon::prelude::*;
 
 #[derive(Clone, Debug)]
@@ -184,23 +184,23 @@ impl TexelMips {
 
     /// Trilinear lookup of the luminance at `uv` through `t`, filtered to a footprint of `footprint` texture
     /// units.
-    fn sample(&self, t: &TextureTransform, uv: [f64; 2], footprint: f64) -> f64 {
+    fn sample(&self, t: &PreparedTransform, uv: [f64; 2], footprint: f64) -> f64 {
         let mut v = [0.0];
         self.sample_into(t, uv, footprint, &mut v);
         v[0]
     }
 
     /// The same lookup of the colour (an `rgb` chain).
-    fn sample_rgb(&self, t: &TextureTransform, uv: [f64; 2], footprint: f64) -> [f64; 3] {
+    fn sample_rgb(&self, t: &PreparedTransform, uv: [f64; 2], footprint: f64) -> [f64; 3] {
         let mut v = [0.0; 3];
         self.sample_into(t, uv, footprint, &mut v);
         v
     }
 
-    fn sample_into(&self, t: &TextureTransform, uv: [f64; 2], footprint: f64, out: &mut [f64]) {
+    fn sample_into(&self, t: &PreparedTransform, uv: [f64; 2], footprint: f64, out: &mut [f64]) {
         let (w0, h0, _) = &self.levels[0];
         let top = self.levels.len() - 1;
-        let lod = (footprint * t.scale[0].abs() * (*w0.max(h0)) as f64).max(1.0).log2().min(top as f64);
+        let lod = (footprint * t.scale()[0].abs() * (*w0.max(h0)) as f64).max(1.0).log2().min(top as f64);
         let l = (lod.floor() as usize).min(top);
         let f = lod - l as f64;
         let at = |l: usize, v: &mut [f64]| {
@@ -279,6 +279,7 @@ impl Groups {
     /// `blur`: the least footprint, in texture units (see `fit`).
     fn terms(&self, g: usize, cells: &Cells, mips: &TexelMips, t: &TextureTransform, blur: f64) -> (f64, f64) {
         let least = blur / t.scale[0].abs().max(1e-9);
+        let t = &t.prepared();
         let m = &self.members[g];
         let (mut cov, mut s, mut ss) = (0.0, 0.0, 0.0);
         for &i in m {
@@ -341,7 +342,7 @@ impl Groups {
     /// not alternatives).
     fn fft_fit(&self, cells: &Cells, corr: &OffsetCorrelator, rotation_deg: f64, scale: f64) -> Fit {
         let n = corr.side();
-        let t = TextureTransform { scale: [scale; 2], rotation_deg, offset: [0.0; 2] };
+        let t = TextureTransform { scale: [scale; 2], rotation_deg, offset: [0.0; 2] }.prepared();
         let top_level = corr.level_count() - 1;
         let mut offsets = vec![];
         let mut top = vec![];
@@ -541,7 +542,8 @@ fn uv_shift(own: [f64; 2], main: [f64; 2], rotation_deg: f64, scale: f64) -> [f6
 fn error_ratio(cells: &Cells, colours: &TexelMips, fit: &Fit, flat: Vec3) -> f32 {
     let (mut textured, mut homogeneous) = (0.0, 0.0);
     for (g, &o) in fit.objects.iter().enumerate() {
-        let t = TextureTransform { scale: [fit.scale; 2], rotation_deg: fit.rotation_deg, offset: fit.offsets[g] };
+        let t = TextureTransform { scale: [fit.scale; 2], rotation_deg: fit.rotation_deg, offset: fit.offsets[g] }
+            .prepared();
         for i in (0..cells.len()).filter(|&i| cells.object[i] == o) {
             let texel = colours.sample_rgb(&t, cells.uv[i], cells.footprint[i]);
             for c in 0..3 {
@@ -639,7 +641,7 @@ mod tests {
             Cells { side: 4, albedo: vec![], colour: vec![], uv: vec![], footprint: vec![], object: vec![] };
         let mut noise = 0x2545F491u32;
         for (o, origin) in origins.iter().enumerate() {
-            let t = TextureTransform { scale: [scale; 2], rotation_deg: rotation, offset: truth[o] };
+            let t = TextureTransform { scale: [scale; 2], rotation_deg: rotation, offset: truth[o] }.prepared();
             for j in 0..60 {
                 for i in 0..(if o == 0 { 90 } else { 40 }) {
                     let uv = [origin[0] + 6.0 + i as f64 * block, origin[1] + 0.3 + j as f64 * block];
@@ -682,12 +684,14 @@ mod tests {
         );
         // Each wall's own offset reproduces its blocks (the texture wraps: offsets compared through the view).
         for (g, o) in fit.objects.iter().enumerate() {
-            let t = TextureTransform { scale: [fit.scale; 2], rotation_deg: fit.rotation_deg, offset: fit.offsets[g] };
+            let t = TextureTransform { scale: [fit.scale; 2], rotation_deg: fit.rotation_deg, offset: fit.offsets[g] }
+                .prepared();
             let (mut se, mut ss, mut n) = (0.0, 0.0, 0.0);
             let members: Vec<usize> = (0..cells.len()).filter(|&i| cells.object[i] == *o).collect();
             let mean = members.iter().map(|&i| cells.albedo[i]).sum::<f64>() / members.len() as f64;
             for &i in &members {
-                let truth = TextureTransform { scale: [scale; 2], rotation_deg: rotation, offset: truth[*o as usize] };
+                let truth = TextureTransform { scale: [scale; 2], rotation_deg: rotation, offset: truth[*o as usize] }
+                    .prepared();
                 let want = mips.sample(&truth, cells.uv[i], block);
                 se += (mips.sample(&t, cells.uv[i], block) - want).powi(2);
                 ss += (cells.albedo[i] - mean).powi(2);
@@ -715,7 +719,7 @@ mod tests {
         for (photo, want_below) in [("brick_wall", true), ("stucco", false)] {
             let shown = library_texture(photo, size);
             let truth = TexelMips::rgb(size, &shown);
-            let t = TextureTransform { scale: [1.0; 2], rotation_deg: 0.0, offset: [0.3, 0.6] };
+            let t = TextureTransform { scale: [1.0; 2], rotation_deg: 0.0, offset: [0.3, 0.6] }.prepared();
             let mut cells =
                 Cells { side: 4, albedo: vec![], colour: vec![], uv: vec![], footprint: vec![], object: vec![] };
             for j in 0..50 {

@@ -144,7 +144,7 @@ fn transform(scale: f32, rotation_deg: f32) -> TextureTransform {
 }
 
 pub fn texture_view_mips(mips: &Mips, scale: f32, rotation_deg: f32, grid: &UvGrid) -> Image {
-    let t = transform(scale, rotation_deg);
+    let t = transform(scale, rotation_deg).prepared();
     let lods = lods(mips, grid, scale);
     let mut data = Vec::with_capacity(grid.width * grid.height * 3);
     let (mut a, mut b) = ([0.0f64; 3], [0.0f64; 3]);
