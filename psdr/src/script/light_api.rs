@@ -173,6 +173,7 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
             "min_step" => o.min_step = n as f32,
             "size_factor" => o.size_factor = n as f32,
             "merge" => o.merge_threshold = n.max(0.0) as f32,
+            "edge_max_side" => o.edge_max_side = n.max(0.05) as f32,
             "min_size" => o.size_range.0 = n as f32,
             "max_size" => o.size_range.1 = n as f32,
             "spp" => o.render.spp = n.max(1.0) as u32,
@@ -180,8 +181,8 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
             "tint_prior" => o.render.tint_prior = n.max(0.0) as f32,
             other => {
                 return Err(Error::Invalid(format!(
-                    "place_lights: unknown option '{other}' (step, min_step, size_factor, merge, min_size, max_size, \
-                     spp, downsample, tint_prior, segments, white)"
+                    "place_lights: unknown option '{other}' (step, min_step, size_factor, merge, edge_max_side, \
+                     min_size, max_size, spp, downsample, tint_prior, segments, white)"
                 )))
             }
         }

@@ -10,9 +10,10 @@
 //! shows, the fits never remove it and the placement leaves it where it is. A patch the frame cuts is either a
 //! light partly in view or a brightly lit white ceiling clipping there (real room01's strip of ceiling above a
 //! window), so it becomes a candidate like the grid's (`light_edge_K`, over the part in view): the fit removes
-//! it where the photo does not need it, and the placement may move and resize it. Left out, nothing could
-//! light those pixels: the grid leaves out every place in view (real room10's ceiling light in the photo's
-//! corner was matched only while a grid candidate happened to be moved next to it).
+//! it where the photo does not need it, and the placement may move and resize its part out of view
+//! (`light_view`). Left out, nothing could light those pixels: the grid leaves out every place in view (real
+//! room10's ceiling light in the photo's corner was matched only while a grid candidate happened to be moved
+//! next to it).
 
 use crate::base::{connected_regions, Intrinsics};
 use crate::scene::{rectangle_mesh, Emitter, Material, Object, Pose, Scene};
@@ -24,9 +25,14 @@ pub fn is_visible_ceiling_light(name: &str) -> bool {
     name.strip_prefix("light_panel_").is_some_and(|k| k.parse::<u32>().is_ok())
 }
 
+/// Whether `name` is a ceiling light the frame cuts (`light_edge_K`): the placement keeps its part in view.
+pub fn is_edge_ceiling_light(name: &str) -> bool {
+    name.strip_prefix("light_edge_").is_some_and(|k| k.parse::<u32>().is_ok())
+}
+
 /// Whether a pixel (linear RGB) looks like a light source: in an 8-bit photo near white with a channel at its
 /// top; else far brighter than the photo's median.
-fn light_pixels(photo: &[f32]) -> Vec<bool> {
+pub(super) fn light_pixels(photo: &[f32]) -> Vec<bool> {
     if is_low_dynamic_range(photo) {
         return photo
             .chunks(3)

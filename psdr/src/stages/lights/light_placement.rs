@@ -8,10 +8,15 @@
 //! seed, so their noise is common and cancels in the comparison. Lights stay
 //! inside the room's box and within `size_range` of their start. A window the photo shows stays where its
 //! pixels put it (`is_visible_window`): its own pixels are clipped and left out of the fit, so nothing held it
-//! (real room01's moved 10 cm up, its render a band of white over the wall above it).
+//! (real room01's moved 10 cm up, its render a band of white over the wall above it). A ceiling light the frame
+//! cuts (`is_edge_ceiling_light`) moves only out of view: besides the moves above, each of its sides may move
+//! out or in by the step, and a move is kept only where its part in view still covers the photo's light pixels
+//! and no others (`light_view`).
 
-use super::is_visible_light;
+use super::ceiling_panels::light_pixels;
 use super::light_fit::{nnls_fit, unit_render, FitTarget, LightFitOptions};
+use super::light_view::{keeps_view, pixels_covered};
+use super::{is_edge_ceiling_light, is_visible_light};
 use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::render::scene_data::luminance;
@@ -24,6 +29,10 @@ const MAX_PASSES: usize = 3;
 /// their half-diagonals: the grid's side-by-side candidates (1.5 m apart, half-diagonals 0.8 m) are, diagonal
 /// ones (2.0 m apart) are not.
 const NEIGHBOUR_REACH: f32 = 1.2;
+
+/// A light the frame cuts may cover this fraction of its light pixels more wrongly than where its move started
+/// (pixels on its sides' boundary).
+const VIEW_TOLERANCE: f32 = 0.02;
 
 #[derive(Clone, Debug)]
 pub struct LightPlacementOptions {
@@ -38,6 +47,9 @@ pub struct LightPlacementOptions {
     /// Two lights side by side in one plane become one at their power-weighted centre when that raises the
     /// fit's relative error by less than this (`merge_neighbours`; 0: never).
     pub merge_threshold: f32,
+    /// A light the frame cuts grows out of view up to this side (metres; its start is its part in view, which
+    /// `size_range` does not bound).
+    pub edge_max_side: f32,
     /// The unit renders: samples per pixel, downsampling, path length. They are made at the size the fit
     /// compares (`light_fit::unit_render`: `spp` per reduced pixel, not per photo pixel).
     pub render: LightFitOptions,
@@ -51,6 +63,7 @@ impl Default for LightPlacementOptions {
             size_factor: 1.25,
             size_range: (0.5, 2.0),
             merge_threshold: 0.0,
+            edge_max_side: 1.2,
             render: LightFitOptions { spp: 64, ..Default::default() },
         }
     }
@@ -156,6 +169,12 @@ pub fn refine_light_placement(
             merge_neighbours(scene, &lights, &mut fit, &mut render, &target, &rel, opts.merge_threshold)?;
         renders += trials;
     }
+    // The lights the frame cuts: the photo's light pixels and the pixels each covered at the start.
+    let bright = light_pixels(photo);
+    let views: Vec<Option<Vec<bool>>> = lights
+        .iter()
+        .map(|&i| is_edge_ceiling_light(&scene.objects[i].name).then(|| pixels_covered(scene, &scene.objects[i])))
+        .collect();
     let (mut step, mut passes) = (opts.step, 0);
     while step >= opts.min_step && !lights.is_empty() {
         let mut improved = false;
@@ -167,7 +186,7 @@ pub fn refine_light_placement(
             let pose = scene.objects[li].pose;
             let (ax, ay) = (pose.rotation * Vec3::X, pose.rotation * Vec3::Y);
             let in_plane = |f: f32| Vec3::new(f, f, 1.0);
-            let trials = [
+            let mut trials = vec![
                 (pose.translation + step * ax, pose.scale),
                 (pose.translation - step * ax, pose.scale),
                 (pose.translation + step * ay, pose.scale),
@@ -175,16 +194,32 @@ pub fn refine_light_placement(
                 (pose.translation, pose.scale * in_plane(opts.size_factor)),
                 (pose.translation, pose.scale * in_plane(1.0 / opts.size_factor)),
             ];
+            let extent = local_extent(&scene.objects[li]);
+            if views[k].is_some() {
+                trials.extend(side_moves(pose.translation, pose.scale, (ax, ay), extent, step));
+            }
             let mut best: Option<Trial> = None;
-            let size_ok = |s: Vec3| {
-                let r = s.x / start[k].1.x;
-                r >= opts.size_range.0 - 1e-4 && r <= opts.size_range.1 + 1e-4
+            let size_ok = |s: Vec3| match views[k] {
+                // Sides from 5 cm (a patch's least) to the most it may grow out of view.
+                Some(_) => (0..2).all(|a| {
+                    let side = extent[a] * s[a];
+                    side >= 0.05 - 1e-4 && side <= opts.edge_max_side.max(extent[a] * start[k].1[a]) + 1e-4
+                }),
+                None => {
+                    let r = s.x / start[k].1.x;
+                    r >= opts.size_range.0 - 1e-4 && r <= opts.size_range.1 + 1e-4
+                }
             };
             for (t, s) in trials.into_iter().filter(|(_, s)| size_ok(*s)) {
                 scene.objects[li].pose.translation = t;
                 scene.objects[li].pose.scale = s;
                 if !inside(scene, li, room) {
                     continue;
+                }
+                if let Some(view) = &views[k] {
+                    if !keeps_view(view, &pixels_covered(scene, &scene.objects[li]), &bright, VIEW_TOLERANCE) {
+                        continue;
+                    }
                 }
                 let img = render(scene, li)?;
                 renders += 1;
@@ -228,6 +263,36 @@ pub fn refine_light_placement(
     let gone: Vec<String> = result.merged.iter().map(|m| m.removed.clone()).collect();
     scene.objects.retain(|o| !gone.contains(&o.name));
     Ok(result)
+}
+
+/// An object's size along its local x and y (before its pose's scale).
+fn local_extent(o: &crate::scene::Object) -> [f32; 2] {
+    let (lo, hi) = o
+        .parts
+        .iter()
+        .flat_map(|p| &p.positions)
+        .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    [(hi.x - lo.x).max(0.0), (hi.y - lo.y).max(0.0)]
+}
+
+/// Each side of a rectangle light (centred on its origin, `extent` before `scale`, local axes `axes` in the
+/// world) moved out by `step` and in by `step`, the opposite side staying: (translation, scale) per move.
+fn side_moves(translation: Vec3, scale: Vec3, axes: (Vec3, Vec3), extent: [f32; 2], step: f32) -> Vec<(Vec3, Vec3)> {
+    let mut moves = vec![];
+    for (a, axis) in [axes.0, axes.1].into_iter().enumerate() {
+        let side = extent[a] * scale[a];
+        if side <= 0.0 {
+            continue;
+        }
+        for sign in [1.0f32, -1.0] {
+            for delta in [step, -step] {
+                let mut s = scale;
+                s[a] = scale[a] * (side + delta) / side;
+                moves.push((translation + axis * (sign * delta / 2.0), s));
+            }
+        }
+    }
+    moves
 }
 
 /// The lights' unit renders, the radiances of the fit and its squared error, over the lights still in it.
@@ -295,8 +360,16 @@ where
 {
     let (mut merges, mut renders) = (vec![], 0);
     loop {
-        let movable: Vec<usize> =
-            fit.active.iter().copied().filter(|&k| !is_visible_light(&scene.objects[lights[k]].name)).collect();
+        // A light the photo shows, or shows in part, stays on its pixels.
+        let movable: Vec<usize> = fit
+            .active
+            .iter()
+            .copied()
+            .filter(|&k| {
+                let name = &scene.objects[lights[k]].name;
+                !is_visible_light(name) && !is_edge_ceiling_light(name)
+            })
+            .collect();
         let power: Vec<f32> = (0..lights.len())
             .map(|k| {
                 let r = fit.rad[k];

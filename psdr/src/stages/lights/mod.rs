@@ -11,9 +11,10 @@ mod light_fit;
 mod light_init;
 mod light_motion;
 mod light_placement;
+mod light_view;
 mod window_lights;
 
-pub use ceiling_panels::{add_visible_ceiling_lights, is_visible_ceiling_light};
+pub use ceiling_panels::{add_visible_ceiling_lights, is_edge_ceiling_light, is_visible_ceiling_light};
 pub use ceiling_search::{search_ceiling_height, CeilingSearch, CeilingSearchOptions};
 pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use light_init::{init_lights, LightInitOptions};
