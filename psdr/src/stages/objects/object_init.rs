@@ -10,7 +10,7 @@
 
 use super::instance_merge::merge_split_instances;
 use super::object_support::{
-    back, back_to_the_wall, half_depth, resting_on, wall_behind, wall_below, walls_of, Extent,
+    back, back_to_the_wall, half_depth, hides_bottom, resting_on, wall_behind, wall_below, walls_of, Extent,
 };
 use super::pose_search::{
     align, distinct_yaws, footprint_size, percentile, pose_at, score, sweep_target, PoseRenderer, PoseSearch,
@@ -320,11 +320,18 @@ pub fn init_objects_with(
         let e = extent(&pts);
         let bottom = e.bottom;
         let middle = Vec3::new(percentile(&mut xs, 0.5), 0.0, percentile(&mut zs, 0.5));
-        let others: Vec<Extent> = furniture.iter().filter(|(id, _)| *id != i.id).map(|(_, x)| *x).collect();
+        // An instance in front of this one's bottom hides it: neither a support nor a sign that nothing stands
+        // under it (real room09's open shelf behind an armchair, wall seen between its boards, was hung on the
+        // wall at half its height).
+        let (hiders, others): (Vec<_>, Vec<_>) = furniture
+            .iter()
+            .filter(|(id, _)| *id != i.id)
+            .partition(|(id, _)| hides_bottom(&inst.ids, depth, w, i.id, *id));
+        let others: Vec<Extent> = others.into_iter().map(|(_, x)| x).collect();
         // Hanging or mounted: a lamp high up, or anything raised whose mask has wall right under it (nothing
         // that could hide legs or a support).
-        let hanging =
-            bottom > floor_y + 0.15 && ((i.class == "lamp" && bottom > floor_y + 1.2) || wall_below(inst, i.id) > 0.5);
+        let hanging = bottom > floor_y + 0.15
+            && ((i.class == "lamp" && bottom > floor_y + 1.2) || (wall_below(inst, i.id) > 0.5 && hiders.is_empty()));
         let support = if bottom > floor_y + 0.15 { resting_on(&e, middle, &others, floor_y) } else { None };
         let base = match (support, hanging) {
             (Some(top), _) => top,
@@ -500,11 +507,12 @@ pub fn init_objects_with(
         let against_wall = wall_behind(&walls, centre, half_depth(&parts) * scale)
             .filter(|w| back(chosen.yaw_deg).dot(-w.normal) > 0.7)
             .map(|w| w.name.clone());
-        // Alternatives: the other finalists, then the sweep's order; a model tried at two scales counts once.
+        // Alternatives: the other finalists, then the sweep's order; a model tried at two scales counts once (by
+        // its file: the libraries name several models alike, real room09's three "Shelves").
         let mut alternatives: Vec<Candidate> = vec![];
         let others = finals.iter().skip(1).map(|f| &f.0).chain(order.iter().map(|&o| &options[o].0));
         for c in others {
-            if c.model != chosen.model && !alternatives.iter().any(|a| a.model == c.model) {
+            if c.path != chosen.path && !alternatives.iter().any(|a| a.path == c.path) {
                 alternatives.push(c.clone());
             }
         }
