@@ -73,6 +73,19 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// A scene with only a camera: default render settings, nothing in it.
+    pub fn empty(camera: Camera) -> Scene {
+        Scene {
+            camera,
+            settings: RenderSettings::default(),
+            materials: vec![],
+            textures: vec![],
+            objects: vec![],
+            source: None,
+            requires_grad: vec![],
+        }
+    }
+
     pub fn object_index(&self, name: &str) -> Option<usize> {
         self.objects.iter().position(|o| o.name == name)
     }

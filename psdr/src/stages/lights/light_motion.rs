@@ -91,7 +91,7 @@ pub fn light_motion(scene: &Scene, name: &str, size_range: (f32, f32)) -> Result
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{rectangle_mesh, Camera, Emitter, Object, Pose, RenderSettings};
+    use crate::scene::{rectangle_mesh, Camera, Emitter, Object, Pose};
     use glam::{EulerRot, Quat};
 
     fn wall(name: &str, at: Vec3) -> Object {
@@ -101,15 +101,7 @@ mod tests {
     /// A 4 x 3 x 2.5 m room with a 1 x 1 m ceiling light 0.2 m from the x1 wall and a window on the x0 wall.
     fn room() -> Scene {
         let camera = Camera::look_at(Vec3::new(0.0, 1.5, 1.0), Vec3::new(0.0, 1.5, 0.0), Vec3::Y, 60.0, 8, 8);
-        let mut s = Scene {
-            camera,
-            settings: RenderSettings::default(),
-            materials: vec![],
-            textures: vec![],
-            objects: vec![],
-            source: None,
-            requires_grad: vec![],
-        };
+        let mut s = Scene::empty(camera);
         for (n, at) in [
             ("floor", Vec3::ZERO),
             ("ceiling", Vec3::new(0.0, 2.5, 0.0)),

@@ -54,7 +54,7 @@ pub(super) fn keeps_view(before: &[bool], after: &[bool], bright: &[bool], toler
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{rectangle_mesh, Camera, Pose, RenderSettings};
+    use crate::scene::{rectangle_mesh, Camera, Pose};
     use glam::Quat;
 
     /// A 1 m square on a ceiling 1 m above a camera looking up covers the pixels the pinhole projection puts it
@@ -62,15 +62,7 @@ mod tests {
     /// each axis.
     #[test]
     fn a_ceiling_square_covers_its_projection() {
-        let scene = Scene {
-            camera: Camera::look_at(Vec3::ZERO, Vec3::Y, Vec3::Z, 90.0, 64, 64),
-            settings: RenderSettings::default(),
-            materials: vec![],
-            textures: vec![],
-            objects: vec![],
-            source: None,
-            requires_grad: vec![],
-        };
+        let scene = Scene::empty(Camera::look_at(Vec3::ZERO, Vec3::Y, Vec3::Z, 90.0, 64, 64));
         let object = Object {
             name: "light_edge_0".into(),
             parts: vec![rectangle_mesh(1.0, 1.0)],
