@@ -325,6 +325,7 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
     });
     engine.register_fn("is_visible_window", crate::stages::is_visible_window);
     engine.register_fn("is_visible_light", crate::stages::is_visible_light);
+    engine.register_fn("is_edge_ceiling_light", crate::stages::is_edge_ceiling_light);
     engine.register_fn("ceiling_lights_init", |s: &mut SceneHandle, obs: ObsHandle| -> Rr<Array> {
         ceiling_lights_init(s, &obs, &Map::new()).map_err(rhai_err)
     });

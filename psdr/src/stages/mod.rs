@@ -12,7 +12,8 @@ mod room;
 
 pub use evaluation::{evaluate, mask_ious, relative_rmse_downsampled, room_in_camera_frame, ssim_luminance, Merged};
 pub use lights::{
-    add_visible_ceiling_lights, add_visible_windows, is_visible_ceiling_light, is_visible_light, is_visible_window,
+    add_visible_ceiling_lights, add_visible_windows, is_edge_ceiling_light, is_visible_ceiling_light, is_visible_light,
+    is_visible_window,
 };
 pub use lights::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use lights::{init_lights, LightInitOptions};
