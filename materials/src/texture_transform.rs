@@ -70,7 +70,7 @@ impl TextureView<'_> {
 }
 
 /// A [`TextureTransform`] with its rotation's sine and cosine computed once, for loops of lookups through one
-/// transform (per lookup they were a seventh of the texture search's time).
+/// transform (per lookup they were a fifteenth of the texture search's time).
 #[derive(Clone, Copy, Debug)]
 pub struct PreparedTransform {
     scale: [f64; 2],

@@ -15,7 +15,7 @@
 
 use super::ceiling_panels::light_pixels;
 use super::light_fit::{nnls_fit, unit_render, FitTarget, LightFitOptions};
-use super::light_view::{keeps_view, pixels_covered};
+use super::light_view::{keeps_view, local_bounds, pixels_covered};
 use super::{is_edge_ceiling_light, is_visible_light};
 use crate::backend::Backend;
 use crate::error::{Error, Result};
@@ -267,11 +267,7 @@ pub fn refine_light_placement(
 
 /// An object's size along its local x and y (before its pose's scale).
 fn local_extent(o: &crate::scene::Object) -> [f32; 2] {
-    let (lo, hi) = o
-        .parts
-        .iter()
-        .flat_map(|p| &p.positions)
-        .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let (lo, hi) = local_bounds(o);
     [(hi.x - lo.x).max(0.0), (hi.y - lo.y).max(0.0)]
 }
 

@@ -13,11 +13,7 @@ use glam::Vec3;
 pub(super) fn pixels_covered(scene: &Scene, object: &Object) -> Vec<bool> {
     let cam = &scene.camera;
     let (w, h) = (cam.width as usize, cam.height as usize);
-    let (lo, hi) = object
-        .parts
-        .iter()
-        .flat_map(|p| &p.positions)
-        .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let (lo, hi) = local_bounds(object);
     if !(lo.x <= hi.x && lo.y <= hi.y) {
         return vec![false; w * h];
     }
@@ -37,6 +33,15 @@ pub(super) fn pixels_covered(scene: &Scene, object: &Object) -> Vec<bool> {
             (lo.x..=hi.x).contains(&q.x) && (lo.y..=hi.y).contains(&q.y)
         })
         .collect()
+}
+
+/// The bounds of an object's vertices in its own frame (before its pose).
+pub(super) fn local_bounds(object: &Object) -> (Vec3, Vec3) {
+    object
+        .parts
+        .iter()
+        .flat_map(|p| &p.positions)
+        .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), v| (lo.min(*v), hi.max(*v)))
 }
 
 /// Whether a light that covered `before` and now covers `after` still shows where the photo shows it: the pixels
