@@ -10,7 +10,7 @@
 
 use super::instance_merge::merge_split_instances;
 use super::object_support::{
-    back, back_to_the_wall, half_depth, resting_on, wall_behind, wall_below, walls_of, Extent,
+    back, back_to_the_wall, half_depth, hides_bottom, resting_on, wall_behind, wall_below, walls_of, Extent,
 };
 use super::pose_search::{
     align, distinct_yaws, footprint_size, percentile, pose_at, score, sweep_target, PoseRenderer, PoseSearch,
@@ -320,11 +320,18 @@ pub fn init_objects_with(
         let e = extent(&pts);
         let bottom = e.bottom;
         let middle = Vec3::new(percentile(&mut xs, 0.5), 0.0, percentile(&mut zs, 0.5));
-        let others: Vec<Extent> = furniture.iter().filter(|(id, _)| *id != i.id).map(|(_, x)| *x).collect();
+        // An instance in front of this one's bottom hides it: neither a support nor a sign that nothing stands
+        // under it (real room09's open shelf behind an armchair, wall seen between its boards, was hung on the
+        // wall at half its height).
+        let (hiders, others): (Vec<_>, Vec<_>) = furniture
+            .iter()
+            .filter(|(id, _)| *id != i.id)
+            .partition(|(id, _)| hides_bottom(&inst.ids, depth, w, i.id, *id));
+        let others: Vec<Extent> = others.into_iter().map(|(_, x)| x).collect();
         // Hanging or mounted: a lamp high up, or anything raised whose mask has wall right under it (nothing
         // that could hide legs or a support).
-        let hanging =
-            bottom > floor_y + 0.15 && ((i.class == "lamp" && bottom > floor_y + 1.2) || wall_below(inst, i.id) > 0.5);
+        let hanging = bottom > floor_y + 0.15
+            && ((i.class == "lamp" && bottom > floor_y + 1.2) || (wall_below(inst, i.id) > 0.5 && hiders.is_empty()));
         let support = if bottom > floor_y + 0.15 { resting_on(&e, middle, &others, floor_y) } else { None };
         let base = match (support, hanging) {
             (Some(top), _) => top,
