@@ -871,9 +871,22 @@ pub const PHOTO_MAX_DEPTH: u32 = 16;
 /// `photo.camera.json`, `truth.json` (with its meshes and textures) and `models.json` (the true models).
 /// Returns the true models.
 pub fn write_room(room: &RealRoom, dir: &Path, w: u32, h: u32, spp: u32) -> psdr::Result<Vec<TrueModel>> {
+    write_room_with_paths(room, dir, w, h, spp, PHOTO_MAX_DEPTH)
+}
+
+/// `write_room` with the photo's paths `max_depth` vertices long: the depth (the mean over each pixel's
+/// samples) and masks are the same at any length, so a test of what reads only those renders short paths.
+pub fn write_room_with_paths(
+    room: &RealRoom,
+    dir: &Path,
+    w: u32,
+    h: u32,
+    spp: u32,
+    max_depth: u32,
+) -> psdr::Result<Vec<TrueModel>> {
     std::fs::create_dir_all(dir).map_err(|e| psdr::Error::io(dir, e))?;
     let (mut truth, built, _) = build_scene(room, w, h)?;
-    truth.settings = RenderSettings { spp, max_depth: PHOTO_MAX_DEPTH, rr_depth: 4, seed: 7 };
+    truth.settings = RenderSettings { spp, max_depth, rr_depth: 4, seed: 7 };
     expose(&mut truth, 0.18, 8)?;
     let f = render_cpu(&SceneData::build(&truth)?, &truth.settings, &|_, _| {});
     let inst = &built.instances;

@@ -47,6 +47,10 @@ pub struct OptimizeOptions {
     pub checkpoint: Option<PathBuf>,
     /// Continue from `checkpoint` if it exists.
     pub resume: bool,
+    /// After every step, each object whose translation is optimised is moved along the floor by the least that
+    /// keeps all of it between the room's walls (`scene::keep_inside_walls`; no effect without the room
+    /// surfaces): furniture cut by a wall has image edges no mesh edge carries, and their gradient is missing.
+    pub keep_inside_room: bool,
 }
 
 impl Default for OptimizeOptions {
@@ -65,6 +69,7 @@ impl Default for OptimizeOptions {
             checkpoint_every: 10,
             checkpoint: None,
             resume: false,
+            keep_inside_room: false,
         }
     }
 }
@@ -129,6 +134,9 @@ pub fn optimize(
             vec![]
         };
         st.iterate(specs, opts, t, loss, &g, &thetas)?;
+        if opts.keep_inside_room {
+            keep_inside_room(scene, specs, &mut st.u)?;
+        }
         let record = IterationRecord {
             iteration: t,
             loss,
@@ -290,6 +298,22 @@ fn probe_pixelwise(scene: &Scene, names: &[String], loss_fn: &mut LossFn) -> Opt
 fn apply(scene: &mut Scene, specs: &[ParamSpec], u: &[Vec<f64>]) -> Result<()> {
     for (s, u) in specs.iter().zip(u) {
         s.path.set(scene, &s.to_theta(u))?;
+    }
+    Ok(())
+}
+
+/// `OptimizeOptions::keep_inside_room`: the state `u` applied, every object whose translation is a parameter
+/// moved back between the walls, and its translation's `u` read back.
+fn keep_inside_room(scene: &mut Scene, specs: &[ParamSpec], u: &mut [Vec<f64>]) -> Result<()> {
+    apply(scene, specs, u)?;
+    let Some(room) = crate::scene::room_box(scene) else { return Ok(()) };
+    for (k, s) in specs.iter().enumerate() {
+        let ParamPath::Translation(name) = &s.path else { continue };
+        let Some(i) = scene.objects.iter().position(|o| &o.name == name) else { continue };
+        if crate::scene::keep_inside_walls(scene, i, room) != glam::Vec3::ZERO {
+            u[k] = s.to_u(&s.path.get(scene)?);
+            s.project(&mut u[k]);
+        }
     }
     Ok(())
 }

@@ -31,6 +31,7 @@ const KNOWN: &[&str] = &[
     "divergence_factor",
     "max_divergences",
     "fused",
+    "keep_inside_room",
     "beta1",
     "beta2",
 ];
@@ -205,6 +206,10 @@ pub fn options(opts: &Map) -> Result<OptimizeOptions> {
     }
     if let Some(v) = opts.get("fused") {
         o.fused = v.as_bool().map_err(|_| Error::Invalid("optimize: 'fused' must be true or false".into()))?;
+    }
+    if let Some(v) = opts.get("keep_inside_room") {
+        o.keep_inside_room =
+            v.as_bool().map_err(|_| Error::Invalid("optimize: 'keep_inside_room' must be true or false".into()))?;
     }
     if let Some(v) = opts.get("beta1") {
         o.adam.beta1 = float(v, "beta1")?;

@@ -69,12 +69,9 @@ impl Default for LightPlacementOptions {
     }
 }
 
-/// The room's box (floor to ceiling, wall to wall) widened by 2 cm, when the scene has the room surfaces.
+/// The room's box (`scene::room_box`) widened by 2 cm, when the scene has the room surfaces.
 pub(super) fn room_box(scene: &Scene) -> Option<(Vec3, Vec3)> {
-    let at = |n: &str| scene.objects.iter().find(|o| o.name == n).map(|o| o.pose.translation);
-    let lo = Vec3::new(at("wall_x0")?.x, at("floor")?.y, at("wall_z0")?.z);
-    let hi = Vec3::new(at("wall_x1")?.x, at("ceiling")?.y, at("wall_z1")?.z);
-    Some((lo.min(hi) - 0.02, lo.max(hi) + 0.02))
+    crate::scene::room_box(scene).map(|(lo, hi)| (lo - 0.02, hi + 0.02))
 }
 
 /// Whether every vertex of object `i` lies inside the room (always, without a room): a light moved through
