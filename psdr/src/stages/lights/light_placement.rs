@@ -78,12 +78,7 @@ pub(super) fn room_box(scene: &Scene) -> Option<(Vec3, Vec3)> {
 /// a wall lights the world behind it, or leaks through the seam.
 fn inside(scene: &Scene, i: usize, room: Option<(Vec3, Vec3)>) -> bool {
     let Some((lo, hi)) = room else { return true };
-    let o = &scene.objects[i];
-    let m = o.pose.matrix();
-    o.parts.iter().flat_map(|p| &p.positions).all(|v| {
-        let w = m.transform_point3(*v);
-        w.cmpge(lo).all() && w.cmple(hi).all()
-    })
+    crate::scene::object_bounds(scene, i).is_none_or(|(a, b)| a.cmpge(lo).all() && b.cmple(hi).all())
 }
 
 /// A move of one light and the fit it gives: its unit render, every light's radiance, the squared error.
