@@ -60,6 +60,11 @@ pub struct ObjectInitOptions {
     /// Poses scoring within this of the best are told apart by the wall prior: an object standing against a
     /// wall turns its back to it (a cabinet turned round looks the same but for a handle under a pixel).
     pub wall_tie: f32,
+    /// How much nearer the camera (metres of depth) an instance right below another's bottom pixels must be
+    /// to hide that bottom rather than hold it up (`object_support::hides_bottom`): a table's top a pixel
+    /// below a lamp's base is 1-3 cm nearer at 3 m (looking down at it), an armchair in front of a shelf 0.3 m
+    /// or more.
+    pub occluder_depth: f32,
 }
 
 impl Default for ObjectInitOptions {
@@ -80,6 +85,7 @@ impl Default for ObjectInitOptions {
             merge_depth_tolerance: 0.1,
             merge_min_span: 0.25,
             wall_tie: 0.02,
+            occluder_depth: 0.1,
         }
     }
 }
@@ -326,7 +332,7 @@ pub fn init_objects_with(
         let (hiders, others): (Vec<_>, Vec<_>) = furniture
             .iter()
             .filter(|(id, _)| *id != i.id)
-            .partition(|(id, _)| hides_bottom(&inst.ids, depth, w, i.id, *id));
+            .partition(|(id, _)| hides_bottom(&inst.ids, depth, w, i.id, *id, opts.occluder_depth));
         let others: Vec<Extent> = others.into_iter().map(|(_, x)| x).collect();
         // Hanging or mounted: a lamp high up, or anything raised whose mask has wall right under it (nothing
         // that could hide legs or a support).

@@ -32,16 +32,12 @@ pub(super) fn resting_on(e: &Extent, centre: Vec3, others: &[Extent], floor_y: f
         .reduce(f32::max)
 }
 
-/// How much nearer the camera (metres of depth) an instance right below another's bottom pixels must be to hide
-/// that bottom rather than hold it up: a table's top a pixel below a lamp's base is 1-3 cm nearer at 3 m
-/// (looking down at it), an armchair in front of a shelf 0.3 m or more.
-const OCCLUDER_DEPTH: f32 = 0.1;
-
 /// Whether instance `other` hides instance `id`'s bottom rather than holding it up: where `id`'s pixels have
-/// `other`'s right below them in the image, `other` is mostly nearer the camera by more than `OCCLUDER_DEPTH`.
-/// The visible bottom of an object behind another ends at the other's top, as a lamp's on a table does (real
-/// room09's shelf behind an armchair was put on the armchair, half its height).
-pub(super) fn hides_bottom(ids: &[u16], depth: &[f32], width: usize, id: u16, other: u16) -> bool {
+/// `other`'s right below them in the image, `other` is mostly nearer the camera by more than `margin` metres
+/// of depth (`ObjectInitOptions::occluder_depth`). The visible bottom of an object behind another ends at the
+/// other's top, as a lamp's on a table does (real room09's shelf behind an armchair was put on the armchair,
+/// half its height).
+pub(super) fn hides_bottom(ids: &[u16], depth: &[f32], width: usize, id: u16, other: u16, margin: f32) -> bool {
     let (mut nearer, mut seen) = (0usize, 0usize);
     for p in 0..ids.len().saturating_sub(width) {
         let (a, b) = (depth[p], depth[p + width]);
@@ -49,7 +45,7 @@ pub(super) fn hides_bottom(ids: &[u16], depth: &[f32], width: usize, id: u16, ot
             continue;
         }
         seen += 1;
-        if b < a - OCCLUDER_DEPTH {
+        if b < a - margin {
             nearer += 1;
         }
     }
@@ -147,6 +143,7 @@ pub(super) fn wall_below(inst: &Instances, id: u16) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::stages::ObjectInitOptions;
 
     /// Without a wall behind it, of two near-tied poses the one facing the camera wins, whichever scored a
     /// hair better; a pose outside the tie is not taken for facing the camera.
@@ -168,9 +165,12 @@ mod tests {
     fn a_nearer_instance_below_hides_the_bottom_a_level_one_holds_it() {
         let ids: Vec<u16> = (0..24).map(|p| if p < 12 { 1 } else { 2 }).collect();
         let depth_with = |below: f32| -> Vec<f32> { (0..24).map(|p| if p < 12 { 3.0 } else { below }).collect() };
-        assert!(hides_bottom(&ids, &depth_with(2.5), 4, 1, 2));
-        assert!(!hides_bottom(&ids, &depth_with(2.98), 4, 1, 2));
-        assert!(!hides_bottom(&ids, &depth_with(2.5), 4, 1, 3));
-        assert!(!hides_bottom(&ids, &depth_with(2.5), 4, 2, 1));
+        let margin = ObjectInitOptions::default().occluder_depth;
+        assert!(hides_bottom(&ids, &depth_with(2.5), 4, 1, 2, margin));
+        assert!(!hides_bottom(&ids, &depth_with(2.98), 4, 1, 2, margin));
+        assert!(!hides_bottom(&ids, &depth_with(2.5), 4, 1, 3, margin));
+        assert!(!hides_bottom(&ids, &depth_with(2.5), 4, 2, 1, margin));
+        // A margin past the armchair's 0.5 m makes it a support again.
+        assert!(!hides_bottom(&ids, &depth_with(2.5), 4, 1, 2, 0.6));
     }
 }
