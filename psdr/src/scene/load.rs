@@ -204,8 +204,24 @@ impl Loader<'_> {
                 offset: Vec2::from(u.offset.unwrap_or([0.0, 0.0])),
             },
         };
-        let mut material =
-            Material { name: m.name.clone(), albedo, roughness, specular, normal_map, uv_transform, procedural: None };
+        let model_look = match &m.model_look {
+            Some(l) if l.albedo.iter().all(|v| v.is_finite()) => Some(super::ModelLook {
+                albedo: Vec3::from(l.albedo),
+                picture: l.picture.as_ref().map(|p| self.base.join(p)),
+            }),
+            Some(_) => return Err(self.err(format!("{field}.model_look.albedo"), "not finite")),
+            None => None,
+        };
+        let mut material = Material {
+            name: m.name.clone(),
+            albedo,
+            roughness,
+            specular,
+            normal_map,
+            uv_transform,
+            procedural: None,
+            model_look,
+        };
         if let Some(p) = &m.procedural {
             let proc = self.procedural(p, &format!("{field}.procedural"))?;
             let texture = proc.bake().map_err(|e| self.err(format!("{field}.procedural"), e.to_string()))?;

@@ -2,6 +2,7 @@
 
 use super::Procedural;
 use glam::{Vec2, Vec3};
+use std::path::PathBuf;
 
 /// An RGB parameter: a constant (linear) or a texture index into `Scene::textures`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,6 +55,19 @@ pub struct Material {
     /// Where the albedo texture comes from when a procedural graph generates it (`albedo` is then that
     /// texture, kept baked at the graph's parameters by `Scene::set_procedural` and parameter writes).
     pub procedural: Option<Procedural>,
+    /// How the furniture model this part came from colours it (its MTL), kept beside the constant `albedo` the
+    /// fits work with until `stages::object_pictures` puts it back: on the parts the photo does not show, and
+    /// the picture, tinted to the fitted albedo, where it is closer to the photo than that constant.
+    pub model_look: Option<ModelLook>,
+}
+
+/// A furniture model's own colouring of one of its parts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelLook {
+    /// Linear albedo: the MTL's Kd times its picture's mean (within the albedo division's range).
+    pub albedo: Vec3,
+    /// The map_Kd picture, where the file is there and reads.
+    pub picture: Option<PathBuf>,
 }
 
 impl Material {
@@ -66,6 +80,7 @@ impl Material {
             normal_map: None,
             uv_transform: UvTransform::default(),
             procedural: None,
+            model_look: None,
         }
     }
 }

@@ -25,7 +25,7 @@ pub use auto_smooth::auto_smooth;
 pub use camera::Camera;
 pub use compare::{same_parts, same_scene, same_triangles};
 pub use load::load_scene;
-pub use material::{Color, Material, Scalar, UvTransform};
+pub use material::{Color, Material, ModelLook, Scalar, UvTransform};
 pub use mesh::{Emitter, MeshPart, Object};
 pub use obj::{load_obj, MtlMaterial, ObjMesh};
 pub use obj_write::{obj_text, written_names, ObjText};

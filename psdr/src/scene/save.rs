@@ -50,6 +50,10 @@ pub fn save_scene(scene: &Scene, path: &Path) -> Result<()> {
                     offset: Some(m.uv_transform.offset.to_array()),
                 }),
                 procedural: m.procedural.as_ref().map(procedural_file).transpose()?,
+                model_look: m.model_look.as_ref().map(|l| super::file::ModelLookFile {
+                    albedo: l.albedo.to_array(),
+                    picture: l.picture.as_ref().map(|p| p.to_string_lossy().into_owned()),
+                }),
             })
         })
         .collect::<Result<Vec<_>>>()?;

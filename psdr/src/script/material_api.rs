@@ -15,6 +15,9 @@
 //! rotations tried every `register_rotation_step` degrees, scales `register_scale_octaves` either side of the
 //! search's in `register_scale_steps` per octave), recorded as `surface_textures` (crops, top matches,
 //! decisions, the graph fits, the registrations).
+//! `object_pictures(s, photo, segments, #{spp, max_error_ratio, max_cells, min_cells, max_size})` puts a
+//! retrieved model's own pictures back on its parts where, tinted to the fitted albedo, they are closer to the
+//! photo's albedo than it (`stages::object_pictures`), recorded as `object_pictures` and returned.
 
 use super::api_support::{check_photo, on_backend, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
@@ -22,8 +25,8 @@ use super::vision_api::ObsHandle;
 use crate::error::Error;
 use crate::loss::{Image, Tensor};
 use crate::stages::{
-    divide_albedos, library_textures, material_segments, search_light_scale, texture_surfaces, Division,
-    LightFitOptions, LightScaleOptions, Segment, SurfaceTextureOptions,
+    apply_object_pictures, divide_albedos, library_textures, material_segments, search_light_scale, texture_surfaces,
+    Division, LightFitOptions, LightScaleOptions, ObjectPictureOptions, Segment, SurfaceTextureOptions,
 };
 use rhai::{Dynamic, Engine, Map};
 
@@ -220,6 +223,31 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
     rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
 }
 
+fn pictures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<Dynamic> {
+    let what = "object_pictures";
+    let mut o = ObjectPictureOptions::default();
+    for (k, v) in opts {
+        let n = option_number(what, k, v)?;
+        match k.as_str() {
+            "spp" => o.spp = n.max(1.0) as u32,
+            "max_error_ratio" => o.max_error_ratio = n.max(0.0) as f32,
+            "max_cells" => o.max_cells = n.max(1.0) as usize,
+            "min_cells" => o.min_cells = n.max(1.0) as usize,
+            "max_size" => o.max_size = n.clamp(1.0, 8192.0) as usize,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "{what}: unknown option '{other}' (spp, max_error_ratio, max_cells, min_cells, max_size)"
+                )))
+            }
+        }
+    }
+    let (photo, segs) = segments(what, scene, photo, map)?;
+    let found = on_backend(run, what, |b| apply_object_pictures(b, &mut scene.0, &photo, &segs, &o))?;
+    let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
+    run.borrow_mut().recorded.insert(what.into(), v.clone());
+    rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
+}
+
 fn segments_of(scene: &SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Result<Map> {
     let mut min_pixels = 20usize;
     for (k, v) in opts {
@@ -246,6 +274,13 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
         "texture_surfaces",
         move |s: &mut SceneHandle, photo: Tensor, segments: Map, opts: Map| -> Rr<Dynamic> {
             textures(&r, s, &photo, &segments, &opts).map_err(rhai_err)
+        },
+    );
+    let r = run.clone();
+    engine.register_fn(
+        "object_pictures",
+        move |s: &mut SceneHandle, photo: Tensor, segments: Map, opts: Map| -> Rr<Dynamic> {
+            pictures(&r, s, &photo, &segments, &opts).map_err(rhai_err)
         },
     );
     let r = run.clone();

@@ -11,7 +11,7 @@ use crate::db::ModelSet;
 use crate::error::Error;
 use crate::loss::{Image, Tensor};
 use crate::scene::Material;
-use crate::stages::{init_objects_with, AppearanceCue, ObjectInitOptions};
+use crate::stages::{init_objects_with, model_looks, AppearanceCue, ObjectInitOptions};
 use glam::Vec3;
 use rhai::{Array, Dynamic, Engine, Map};
 use std::path::PathBuf;
@@ -72,7 +72,10 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
     let cue = model.as_mut().map(|m| AppearanceCue { photo: &obs.0.photo, model: m, weight: embedding_weight });
     let (placed, skipped) = init_objects_with(&scene.0, &depth.image.data, inst, &models, &o, cue);
     // One material per part of each placed object (the model's own material groups: a chair's frame and its
-    // seat), named OBJECT or OBJECT:PART when it has several, so later stages can give each its own.
+    // seat), named OBJECT or OBJECT:PART when it has several, so later stages can give each its own; each
+    // starts grey, the model's own colour and picture kept for `object_pictures` (`model_looks`). (Started at
+    // those colours, real room08's light stage kept 2 of its 3 lights: its choice is that sensitive to the
+    // scene it is handed, benchmarks/README.md.)
     let mut out = Array::new();
     let mut records = vec![];
     for (p, mut object) in placed {
@@ -84,9 +87,12 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
             part.material = names.iter().position(|n| *n == part.name).unwrap_or(0);
         }
         let first = scene.0.materials.len();
+        let looks = p.chosen.path.as_deref().map(model_looks).unwrap_or_default();
         for n in &names {
             let name = if names.len() == 1 { p.name.clone() } else { format!("{}:{n}", p.name) };
-            scene.0.materials.push(Material::diffuse(&name, Vec3::splat(0.5)));
+            let mut material = Material::diffuse(&name, Vec3::splat(0.5));
+            material.model_look = looks.get(n).cloned();
+            scene.0.materials.push(material);
         }
         object.parts.iter_mut().for_each(|part| part.material += first);
         scene.0.objects.push(object);

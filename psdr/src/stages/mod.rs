@@ -21,6 +21,7 @@ pub use lights::{light_motion, LightMotion};
 pub use lights::{refine_light_placement, LightPlacement, LightPlacementOptions};
 pub use lights::{search_ceiling_height, CeilingSearch, CeilingSearchOptions};
 pub use materials::material_segments;
+pub use materials::{apply_object_pictures, ObjectPicture, ObjectPictureOptions};
 pub use materials::{
     contrast, library_textures, search_materials, search_materials_on, search_materials_with, transformed_view,
     view_at, LibraryTexture, MaterialEncoder, MaterialMatch,
@@ -33,7 +34,7 @@ pub use objects::{
     init_objects, init_objects_with, missing_classes, AppearanceCue, Candidate, ObjectInitOptions, ObjectPlacement,
     SkippedInstance,
 };
-pub use objects::{merge_split_instances, MergedInstance};
+pub use objects::{merge_split_instances, model_looks, MergedInstance};
 pub use room::{box_mask_iou, box_view, estimate_axes, layout_room, BoxSurface, LayoutEvidence, LayoutOptions};
 pub use room::{init_room, search_frame, FrameChoice, FrameStart, RoomEstimate, RoomInitOptions};
 pub use room::{room_scene, room_summary, ROOM_SURFACES};

@@ -2,13 +2,15 @@
 //! the shading and the lights' common scale (`albedo_division`, or
 //! scored from renders kept by bounce count: `light_scale_bounces`), the procedural library searched on a crop
 //! (`material_search`, through `texture_view`) and fitted to it (`graph_fit`), and applied to the surfaces that
-//! show a texture (`surface_textures`), registered on the surface's pixels (`texture_registration`).
+//! show a texture (`surface_textures`), registered on the surface's pixels (`texture_registration`); a retrieved model's own pictures go back on
+//! its parts where they are closer to the photo than the fitted constant (`object_pictures`).
 
 mod albedo_division;
 mod graph_fit;
 mod light_scale_bounces;
 mod material_search;
 mod material_segments;
+mod object_pictures;
 mod offset_correlation;
 mod surface_textures;
 mod texture_registration;
@@ -21,6 +23,7 @@ pub use material_search::{
     view_at, LibraryTexture, MaterialEncoder, MaterialMatch,
 };
 pub use material_segments::material_segments;
+pub use object_pictures::{apply_object_pictures, ObjectPicture, ObjectPictureOptions};
 pub use surface_textures::{texture_surfaces, SurfaceTexture, SurfaceTextureOptions};
 pub use texture_registration::{Registration, RegistrationOptions};
 pub use texture_view::{texture_view, texture_view_backward, Mips, UvGrid};

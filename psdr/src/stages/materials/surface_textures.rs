@@ -444,7 +444,7 @@ fn albedo_crop(
 }
 
 /// The render blurred by `SHADING_BLUR` pixels (see `albedo_crop`), `w` x `h` RGB.
-fn blurred(render: &[f32], w: usize, h: usize) -> Vec<f32> {
+pub(super) fn blurred(render: &[f32], w: usize, h: usize) -> Vec<f32> {
     let img = Image { width: w, height: h, channels: 3, data: render.to_vec() };
     crate::loss::blur(&Tensor::constant(img), SHADING_BLUR)
         .map(|t| t.value().data.clone())

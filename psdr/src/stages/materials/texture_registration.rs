@@ -191,7 +191,7 @@ impl TexelMips {
     }
 
     /// The same lookup of the colour (an `rgb` chain).
-    fn sample_rgb(&self, t: &PreparedTransform, uv: [f64; 2], footprint: f64) -> [f64; 3] {
+    pub(crate) fn sample_rgb(&self, t: &PreparedTransform, uv: [f64; 2], footprint: f64) -> [f64; 3] {
         let mut v = [0.0; 3];
         self.sample_into(t, uv, footprint, &mut v);
         v
