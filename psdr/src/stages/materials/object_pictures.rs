@@ -116,6 +116,7 @@ pub fn apply_object_pictures(
         let Some(picture) = picture else {
             // Unseen, without a picture: the model's colour.
             scene.materials[m].albedo = Color::Constant(look.albedo);
+            scene.materials[m].model_look = None;
             entry.applied = true;
             entry.decision = "not shown: the model's colour".into();
             out.push(entry);
