@@ -40,7 +40,7 @@ pub struct Segment {
 }
 
 /// Albedo bounds of the division (a real surface neither absorbs nor reflects everything).
-pub(super) const ALBEDO_RANGE: (f32, f32) = (0.01, 0.95);
+pub(crate) const ALBEDO_RANGE: (f32, f32) = (0.01, 0.95);
 
 fn mean_colour(img: &[f32], mask: &[f32]) -> Vec3 {
     let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);

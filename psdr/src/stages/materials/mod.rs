@@ -16,6 +16,7 @@ mod surface_textures;
 mod texture_registration;
 mod texture_view;
 
+pub(crate) use albedo_division::ALBEDO_RANGE;
 pub use albedo_division::{divide_albedos, search_light_scale, Division, LightScale, LightScaleOptions, Segment};
 pub use graph_fit::{fit_graph_to_crop, GraphFit, GraphFitOptions};
 pub use material_search::{

@@ -203,29 +203,14 @@ pub fn apply_object_pictures(
     Ok(out)
 }
 
-/// The picture resampled (bilinear, wrapping as the renderer does) to a square power of two no larger than
+/// The picture resampled (the image crate's bilinear filter) to a square power of two no larger than
 /// `max_size` nor than its longer side: the registration's mip chains are square, and a few megatexels of print
 /// on a sofa are not what a 512-pixel photo shows.
 fn square(t: &Texture, max_size: usize) -> Texture {
     let longest = t.width.max(t.height) as usize;
     let n = longest.next_power_of_two().min(max_size.max(1).next_power_of_two());
-    let n = if n > longest { n / 2 } else { n }.max(1);
-    let (tw, th) = (t.width as usize, t.height as usize);
-    let at = |x: usize, y: usize, c: usize| t.texels[((y % th) * tw + x % tw) * 3 + c];
-    let mut texels = vec![0.0f32; n * n * 3];
-    for y in 0..n {
-        for x in 0..n {
-            let (fx, fy) =
-                ((x as f32 + 0.5) * tw as f32 / n as f32 - 0.5, (y as f32 + 0.5) * th as f32 / n as f32 - 0.5);
-            let (x0, y0) = (fx.floor(), fy.floor());
-            let (ax, ay) = (fx - x0, fy - y0);
-            let (x0, y0) =
-                ((x0 as isize).rem_euclid(tw as isize) as usize, (y0 as isize).rem_euclid(th as isize) as usize);
-            for c in 0..3 {
-                texels[(y * n + x) * 3 + c] = (1.0 - ay) * ((1.0 - ax) * at(x0, y0, c) + ax * at(x0 + 1, y0, c))
-                    + ay * ((1.0 - ax) * at(x0, y0 + 1, c) + ax * at(x0 + 1, y0 + 1, c));
-            }
-        }
-    }
-    Texture { path: t.path.clone(), width: n as u32, height: n as u32, channels: 3, texels }
+    let n = if n > longest { n / 2 } else { n }.max(1) as u32;
+    let img = image::Rgb32FImage::from_raw(t.width, t.height, t.texels.clone()).expect("RGB texels of its size");
+    let texels = image::imageops::resize(&img, n, n, image::imageops::FilterType::Triangle).into_raw();
+    Texture { path: t.path.clone(), width: n, height: n, channels: 3, texels }
 }

@@ -5,12 +5,10 @@
 //! part's picture goes back on.
 
 use crate::scene::{load_obj, ModelLook, Texture, TextureEncoding};
+use crate::stages::materials::ALBEDO_RANGE;
 use glam::Vec3;
 use std::collections::HashMap;
 use std::path::Path;
-
-/// The albedo range the material stage divides within (a real surface neither absorbs nor reflects everything).
-const ALBEDO_RANGE: (f32, f32) = (0.01, 0.95);
 
 /// Per material group name (the parts' names), the model's own colour and picture. A model without an MTL file,
 /// or one that does not read, gives none: its parts start grey.
