@@ -5,7 +5,8 @@
 //! and sizes the lights by pattern search (`stages::light_placement`), recorded as `light_placement`.
 //! `light_pose_params(s, name, opts)` gives the `optimize` entries that move a light by gradient.
 //! `search_ceiling_height(s, obs, opts)` places a ceiling the photo does not show where its candidate lights
-//! fit the photo best (`stages::ceiling_search`), recorded as `ceiling_search`.
+//! fit the photo best (`stages::ceiling_search`), recorded as `ceiling_search`. `outline_lights(s, obs)`
+//! refits the outlines of the lights the photo shows at their fitted radiances, recorded as `light_outlines`.
 
 use super::api_support::{check_photo, on_backend, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
@@ -158,8 +159,20 @@ fn windows_init(scene: &mut SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::
     }
     let depth = obs.0.require_depth()?;
     let inst = obs.0.require_instances()?;
-    let names = crate::stages::add_visible_windows(&mut scene.0, &depth.image.data, inst, min_pixels);
+    let names =
+        crate::stages::add_visible_windows(&mut scene.0, Some(&obs.0.photo.data), &depth.image.data, inst, min_pixels);
     Ok(names.into_iter().map(Dynamic::from).collect())
+}
+
+/// `outline_lights(s, obs)`: the outlines of the lights the photo shows refitted to its pixels at their fitted
+/// radiances (`stages::fit_light_outlines`), recorded as `light_outlines`; returns the refitted lights' names.
+fn outline_lights(run: &RunRef, scene: &mut SceneHandle, obs: &ObsHandle) -> crate::Result<Array> {
+    check_photo("outline_lights", &scene.0, &obs.0.photo)?;
+    let inst = obs.0.instances.as_ref().filter(|i| i.ids.len() == obs.0.photo.width * obs.0.photo.height);
+    let outlines = crate::stages::fit_light_outlines(&mut scene.0, &obs.0.photo.data, inst);
+    let v = serde_json::to_value(&outlines).map_err(|e| Error::Invalid(e.to_string()))?;
+    run.borrow_mut().recorded.insert("light_outlines".into(), v);
+    Ok(outlines.into_iter().map(|o| Dynamic::from(o.name)).collect())
 }
 
 fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> crate::Result<Dynamic> {
@@ -322,6 +335,10 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
     let r = run.clone();
     engine.register_fn("search_ceiling_height", move |s: &mut SceneHandle, obs: ObsHandle, opts: Map| -> Rr<Dynamic> {
         ceiling_height(&r, s, &obs, &opts).map_err(rhai_err)
+    });
+    let r = run.clone();
+    engine.register_fn("outline_lights", move |s: &mut SceneHandle, obs: ObsHandle| -> Rr<Array> {
+        outline_lights(&r, s, &obs).map_err(rhai_err)
     });
     engine.register_fn("is_visible_window", crate::stages::is_visible_window);
     engine.register_fn("is_visible_light", crate::stages::is_visible_light);

@@ -15,6 +15,7 @@ pub use lights::{
     add_visible_ceiling_lights, add_visible_windows, is_edge_ceiling_light, is_visible_ceiling_light, is_visible_light,
     is_visible_window,
 };
+pub use lights::{fit_light_outlines, LightOutline};
 pub use lights::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use lights::{init_lights, LightInitOptions};
 pub use lights::{light_motion, LightMotion};

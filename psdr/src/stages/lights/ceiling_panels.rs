@@ -6,7 +6,8 @@
 //! 8-bit photo; 20x the median luminance in a high-dynamic-range one) that lies on the ceiling (its ray meets
 //! the ceiling plane where the depth says, or the depth is missing), that no furniture instance covers and the
 //! frame does not cut becomes an emissive rectangle 1 cm under the ceiling over the range of its pixels'
-//! points, facing down, radiance 1 (the light fit scales it). Named `light_panel_K`; like a window the photo
+//! points, its outline then fitted to the photo's pixels (`emitter_outline`), facing down, radiance 1 (the
+//! light fit scales it). Named `light_panel_K`; like a window the photo
 //! shows, the fits never remove it and the placement leaves it where it is. A patch the frame cuts is either a
 //! light partly in view or a brightly lit white ceiling clipping there (real room01's strip of ceiling above a
 //! window), so it becomes a candidate like the grid's (`light_edge_K`, over the part in view): the fit removes
@@ -15,6 +16,7 @@
 //! room10's ceiling light in the photo's corner was matched only while a grid candidate happened to be moved
 //! next to it).
 
+use super::emitter_outline::{refine_outline, PlaneRect};
 use crate::base::{connected_regions, Intrinsics};
 use crate::scene::{rectangle_mesh, Emitter, Material, Object, Pose, Scene};
 use crate::vision::{is_low_dynamic_range, Instances, CLIPPED_LINEAR};
@@ -45,6 +47,9 @@ pub(super) fn light_pixels(photo: &[f32]) -> Vec<bool> {
     let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
     lum.iter().map(|l| median > 0.0 && *l >= 20.0 * median).collect()
 }
+
+/// How far (pixels) the photo may move a ceiling light's edges from its pixels' range.
+const OUTLINE_MARGIN: f32 = 4.0;
 
 fn percentile(v: &mut [f32], q: f32) -> f32 {
     v.sort_by(f32::total_cmp);
@@ -79,6 +84,7 @@ pub fn add_visible_ceiling_lights(
         })
     };
     let bright = light_pixels(photo);
+    let ldr = is_low_dynamic_range(photo);
     // Each light pixel's point on the ceiling plane, where its ray meets it in front of the camera and the
     // depth (if any) agrees within 15 %.
     let on_ceiling: Vec<Option<Vec3>> = (0..w * h)
@@ -113,10 +119,10 @@ pub fn add_visible_ceiling_lights(
     let mut names = vec![];
     let (mut panels, mut edges) = (0, 0);
     for (in_view, points) in patches.into_iter().filter(|p| p.1.len() >= min_pixels.max(4)) {
-        // The 2-98 % range of the pixels' points, not widened as for windows: a light's edge pixels clip too (a
-        // tenth of its radiance is already white), so the patch reaches past the light by up to a pixel's
-        // footprint, which at a grazing view of the ceiling is several centimetres (the full range made a
-        // 1.2 m panel 1.28 m deep, the windows' widened range 1.25 m).
+        // First the 2-98 % range of the pixels' points, not widened as for windows: a light's edge pixels clip
+        // too (a tenth of its radiance is already white), so the patch reaches past the light by up to a
+        // pixel's footprint, which at a grazing view of the ceiling is several centimetres (the full range made
+        // a 1.2 m panel 1.28 m deep, the windows' widened range 1.25 m).
         let (mut xs, mut zs): (Vec<f32>, Vec<f32>) = points.iter().map(|p| (p.x, p.z)).unzip();
         let (x0, x1, z0, z1) = (
             percentile(&mut xs, 0.02),
@@ -124,7 +130,18 @@ pub fn add_visible_ceiling_lights(
             percentile(&mut zs, 0.02),
             percentile(&mut zs, 0.98),
         );
-        let (sx, sz) = ((x1 - x0).max(0.05), (z1 - z0).max(0.05));
+        let mut rect = PlaneRect {
+            origin: Vec3::Y * (ceiling_y - 0.01),
+            a: Vec3::X,
+            b: Vec3::Z,
+            u: [x0.min(x1 - 0.05), x1],
+            v: [z0.min(z1 - 0.05), z1],
+        };
+        // Then its outline fitted to the photo's pixels around it, furniture left out.
+        if let Some(o) = refine_outline(&cam, photo, &|p| !furniture(p), rect, OUTLINE_MARGIN, ldr, None) {
+            rect = o.rect;
+        }
+        let (centre, sx, sz) = rect.centre_and_size();
         let mut part = rectangle_mesh(sx, sz);
         part.material = material;
         let name = if in_view {
@@ -139,7 +156,7 @@ pub fn add_visible_ceiling_lights(
             parts: vec![part],
             // The rectangle lies in its x-y plane facing +z: turned to lie in x-z facing down.
             pose: Pose {
-                translation: Vec3::new((x0 + x1) / 2.0, ceiling_y - 0.01, (z0 + z1) / 2.0),
+                translation: centre,
                 rotation: Quat::from_rotation_x(std::f32::consts::FRAC_PI_2),
                 scale: Vec3::ONE,
             },

@@ -135,7 +135,7 @@ pub fn search_ceiling_height(
     set_height(&mut base, first);
     let mut names = init_lights(&mut base, &opts.lights);
     if let Some(inst) = windows {
-        names.extend(add_visible_windows(&mut base, depth, inst, opts.window_min_pixels));
+        names.extend(add_visible_windows(&mut base, Some(photo), depth, inst, opts.window_min_pixels));
     }
     let fit_at = |backend: &mut dyn Backend, height: f32| -> Result<f32> {
         let mut s = base.clone();

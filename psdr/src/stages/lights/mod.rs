@@ -7,6 +7,7 @@
 mod albedo_free_split;
 mod ceiling_panels;
 mod ceiling_search;
+mod emitter_outline;
 mod light_fit;
 mod light_init;
 mod light_motion;
@@ -16,6 +17,7 @@ mod window_lights;
 
 pub use ceiling_panels::{add_visible_ceiling_lights, is_edge_ceiling_light, is_visible_ceiling_light};
 pub use ceiling_search::{search_ceiling_height, CeilingSearch, CeilingSearchOptions};
+pub use emitter_outline::{fit_light_outlines, LightOutline};
 pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
 pub use light_init::{init_lights, LightInitOptions};
 pub use light_motion::{light_motion, LightMotion};

@@ -1,12 +1,13 @@
 //! Windows the photo shows become area lights (PSDR-Room: "visible windows and lamps made emissive"): each
 //! window instance's pixels are back-projected with the depth, the wall they lie on is the scene's nearest
 //! wall plane, and the window is the range of its points on that wall, an emissive rectangle 1 cm in
-//! front of it, radiance 1 (the light fit scales it). Named `light_window_ID`, so the light fit and the material
-//! stage treat it as a light.
+//! front of it, radiance 1 (the light fit scales it), its outline then fitted to the photo's pixels
+//! (`emitter_outline`). Named `light_window_ID`, so the light fit and the material stage treat it as a light.
 
+use super::emitter_outline::{refine_outline, PlaneRect};
 use crate::base::Intrinsics;
 use crate::scene::{rectangle_mesh, Emitter, Material, Object, Pose, Scene};
-use crate::vision::Instances;
+use crate::vision::{is_low_dynamic_range, Instances};
 use glam::{Quat, Vec3};
 
 /// Whether `name` is a window the photo shows (`light_window_ID`, ID its instance), as opposed to a candidate
@@ -16,14 +17,41 @@ pub fn is_visible_window(name: &str) -> bool {
     name.strip_prefix("light_window_").is_some_and(|id| id.parse::<u32>().is_ok())
 }
 
+/// How far (pixels) the photo may move a window's edges from its pixels' range.
+const OUTLINE_MARGIN: f32 = 4.0;
+
+/// Whether pixel `p` of `inst` tells where window instance `id`'s outline is: within 2 pixels of its mask (a
+/// pixel it covers in part reads white though its centre is the wall's; further out a clipped wall is the
+/// light's hot spot, not the window: real room04's wall beside its window clips), and the window's, the
+/// room's or no instance's (furniture before it, or another window, are not its background).
+pub(crate) fn near_window(inst: &Instances, id: u16, p: usize) -> bool {
+    let (w, h) = (inst.width, inst.height);
+    let own = inst.ids[p];
+    let room =
+        |v: u16| inst.instances.iter().any(|x| x.id == v && ["wall", "floor", "ceiling"].contains(&x.class.as_str()));
+    if !(own == id || own == 0 || room(own)) {
+        return false;
+    }
+    let (x, y) = (p % w, p / w);
+    (y.saturating_sub(2)..(y + 3).min(h))
+        .any(|yy| (x.saturating_sub(2)..(x + 3).min(w)).any(|xx| inst.ids[yy * w + xx] == id))
+}
+
 fn percentile(v: &mut [f32], q: f32) -> f32 {
     v.sort_by(f32::total_cmp);
     v[((v.len() - 1) as f32 * q).round() as usize]
 }
 
-/// Adds an emitter for every window instance of `inst` with at least `min_pixels` pixels of depth; returns
+/// Adds an emitter for every window instance of `inst` with at least `min_pixels` pixels of depth, its outline
+/// fitted to `photo`'s pixels where it is given (linear RGB at the camera's size, `refine_outline`); returns
 /// their names.
-pub fn add_visible_windows(scene: &mut Scene, depth: &[f32], inst: &Instances, min_pixels: usize) -> Vec<String> {
+pub fn add_visible_windows(
+    scene: &mut Scene,
+    photo: Option<&[f32]>,
+    depth: &[f32],
+    inst: &Instances,
+    min_pixels: usize,
+) -> Vec<String> {
     let cam = scene.camera.clone();
     let k = Intrinsics::new(inst.width, inst.height, cam.fov_y_deg);
     let (right, up, fwd) = (cam.right(), cam.up, cam.forward);
@@ -68,8 +96,25 @@ pub fn add_visible_windows(scene: &mut Scene, depth: &[f32], inst: &Instances, m
         if u1 - u0 < 0.05 || v1 - v0 < 0.05 {
             continue;
         }
-        let (width, height) = ((u1 - u0) / 0.96, (v1 - v0) / 0.96);
-        let centre = across * (u0 + u1) / 2.0 + Vec3::Y * (v0 + v1) / 2.0 + n * (d + 0.01);
+        let (du, dv) = ((u1 - u0) / 0.96 - (u1 - u0), (v1 - v0) / 0.96 - (v1 - v0));
+        let mut rect = PlaneRect {
+            origin: n * (d + 0.01),
+            a: across,
+            b: Vec3::Y,
+            u: [u0 - du / 2.0, u1 + du / 2.0],
+            v: [v0 - dv / 2.0, v1 + dv / 2.0],
+        };
+        // The outline from the photo's pixels where it has them (a window the frame cuts keeps its range
+        // beyond the frame: no pixel there pulls on it). Other windows and furniture are not its background.
+        if let Some(photo) = photo {
+            let usable = |p: usize| near_window(inst, i.id, p);
+            if let Some(o) =
+                refine_outline(&cam, photo, &usable, rect, OUTLINE_MARGIN, is_low_dynamic_range(photo), None)
+            {
+                rect = o.rect;
+            }
+        }
+        let (centre, width, height) = rect.centre_and_size();
         if scene.materials.iter().all(|m| m.name != "window") {
             scene.materials.push(Material::diffuse("window", Vec3::splat(0.8)));
         }
