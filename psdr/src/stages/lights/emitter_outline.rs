@@ -311,17 +311,18 @@ pub fn fit_light_outlines(scene: &mut Scene, photo: &[f32], inst: Option<&Instan
             .positions
             .iter()
             .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
-        let (hw, hh) = ((hi.x - lo.x) / 2.0, (hi.y - lo.y) / 2.0);
-        if !(hw > 0.0 && hh > 0.0) {
+        // A flat rectangle in its own x-y plane (as psdr makes lights), not necessarily centred.
+        let (w0, h0) = (hi.x - lo.x, hi.y - lo.y);
+        if !(w0 > 0.0 && h0 > 0.0) || (hi.z - lo.z).abs() > 1e-4 * w0.max(h0) {
             continue;
         }
         let (sx, sy) = (o.pose.scale.x, o.pose.scale.y);
         let start = PlaneRect {
-            origin: o.pose.translation,
+            origin: o.pose.translation + o.pose.rotation * Vec3::Z * (lo.z * o.pose.scale.z),
             a: o.pose.rotation * Vec3::X,
             b: o.pose.rotation * Vec3::Y,
-            u: [-hw * sx, hw * sx],
-            v: [-hh * sy, hh * sy],
+            u: [lo.x * sx, hi.x * sx],
+            v: [lo.y * sy, hi.y * sy],
         };
         let own = o.name.strip_prefix("light_window_").and_then(|id| id.parse::<u16>().ok());
         let usable = |p: usize| match (inst, own) {
@@ -353,10 +354,10 @@ pub fn fit_light_outlines(scene: &mut Scene, photo: &[f32], inst: Option<&Instan
         let moved_px = (0..2)
             .map(|j| footprint(r.a, r.u[j] - start.u[j]).max(footprint(r.b, r.v[j] - start.v[j])))
             .fold(0.0, f32::max);
-        let (centre, width, height) = r.centre_and_size();
-        o.pose.translation = centre;
-        o.pose.scale.x = width / (2.0 * hw);
-        o.pose.scale.y = height / (2.0 * hh);
+        // The new scale along x and y, and the translation that puts the mesh's corner (lo) at the fit's.
+        let (nx, ny) = ((r.u[1] - r.u[0]) / w0, (r.v[1] - r.v[0]) / h0);
+        o.pose.translation += r.a * (r.u[0] - lo.x * nx) + r.b * (r.v[0] - lo.y * ny);
+        (o.pose.scale.x, o.pose.scale.y) = (nx, ny);
         out.push(LightOutline {
             name: o.name.clone(),
             moved_px,
@@ -380,6 +381,54 @@ mod tests {
         // The diamond |x - 2| + |y - 2| <= 1 covers the half of pixel (1, 1) where x + y >= 3.
         let diamond = [Vec2::new(2.0, 1.0), Vec2::new(3.0, 2.0), Vec2::new(2.0, 3.0), Vec2::new(1.0, 2.0)];
         assert!((covered(&diamond, 1.0, 1.0) - 0.5).abs() < 1e-6);
+    }
+
+    /// A window light 1.5 pixels too small and off-centre in its mesh (not as psdr makes them, as a scene
+    /// file may) is refitted by `fit_light_outlines` at its own radiance to the photo's: its world corners end
+    /// within half a pixel of the true ones (the camera is rolled, so the photo pins them), its mesh untouched.
+    #[test]
+    fn a_window_light_is_refitted_at_its_radiance() {
+        use crate::scene::{rectangle_mesh, Emitter, Object, Pose};
+        use glam::Quat;
+        let (w, h) = (160usize, 120usize);
+        let cam = Camera::look_at(
+            Vec3::new(0.3, 1.4, 3.0),
+            Vec3::new(-0.4, 1.2, 0.0),
+            Vec3::new(0.15, 1.0, 0.0),
+            60.0,
+            w as u32,
+            h as u32,
+        );
+        let truth = PlaneRect { origin: Vec3::ZERO, a: Vec3::X, b: Vec3::Y, u: [-0.83, -0.11], v: [0.97, 1.71] };
+        let all: Vec<usize> = (0..w * h).collect();
+        let c = coverage(&cam, &truth, &all, w).unwrap();
+        let (light, wall) = (6.0f32, 0.3f32);
+        let photo: Vec<f32> = c.iter().flat_map(|c| [(c * light + (1.0 - c) * wall).min(1.0); 3]).collect();
+        let footprint = 3.0 * 2.0 * (30.0f32).to_radians().tan() / h as f32;
+        // The mesh spans x in [0, 0.6], y in [-0.2, 0.5]; its pose puts it 1.5 pixels inside the truth.
+        let mut part = rectangle_mesh(0.6, 0.7);
+        part.positions.iter_mut().for_each(|p| *p += Vec3::new(0.3, 0.15, 0.0));
+        let k = 1.5 * footprint;
+        let scale = Vec3::new((0.72 - 2.0 * k) / 0.6, (0.74 - 2.0 * k) / 0.7, 1.0);
+        let at = Vec3::new(-0.83 + k, 0.97 + k, 0.0) - Vec3::new(0.0, -0.2 * scale.y, 0.0);
+        let mut scene = Scene::empty(cam);
+        scene.objects.push(Object {
+            name: "light_window_3".into(),
+            parts: vec![part],
+            pose: Pose { translation: at, rotation: Quat::IDENTITY, scale },
+            emitter: Some(Emitter { radiance: Vec3::new(5.0, light, 4.0), two_sided: false }),
+        });
+        let fitted = fit_light_outlines(&mut scene, &photo, None);
+        assert_eq!(fitted.len(), 1, "{fitted:?}");
+        let o = &scene.objects[0];
+        let m = o.pose.matrix();
+        let corners: Vec<Vec3> = o.parts[0].positions.iter().map(|p| m.transform_point3(*p)).collect();
+        let (lo, hi) =
+            corners.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
+        for (got, want) in [lo.x, hi.x, lo.y, hi.y].iter().zip([-0.83, -0.11, 0.97, 1.71]) {
+            assert!((got - want).abs() < 0.5 * footprint, "edge {got} for {want}: {fitted:?}");
+        }
+        assert!(fitted[0].moved_px > 1.0 && fitted[0].error_after < 0.01 * fitted[0].error_before, "{fitted:?}");
     }
 
     /// The photo of a bright rectangle on a wall, drawn with each pixel's exact covered area and clipped at 1,
