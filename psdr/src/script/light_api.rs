@@ -164,12 +164,20 @@ fn windows_init(scene: &mut SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::
     Ok(names.into_iter().map(Dynamic::from).collect())
 }
 
-/// `outline_lights(s, obs)`: the outlines of the lights the photo shows refitted to its pixels at their fitted
-/// radiances (`stages::fit_light_outlines`), recorded as `light_outlines`; returns the refitted lights' names.
-fn outline_lights(run: &RunRef, scene: &mut SceneHandle, obs: &ObsHandle) -> crate::Result<Array> {
+/// `outline_lights(s, obs, #{margin})`: the outlines of the lights the photo shows refitted to its pixels at
+/// their fitted radiances, each edge within `margin` pixels (2) (`stages::fit_light_outlines`), recorded as
+/// `light_outlines`; returns the refitted lights' names.
+fn outline_lights(run: &RunRef, scene: &mut SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Result<Array> {
+    let mut margin = 2.0f32;
+    for (k, v) in opts {
+        match k.as_str() {
+            "margin" => margin = number(k, v, "outline_lights")?.max(0.0) as f32,
+            other => return Err(Error::Invalid(format!("outline_lights: unknown option '{other}' (margin)"))),
+        }
+    }
     check_photo("outline_lights", &scene.0, &obs.0.photo)?;
     let inst = obs.0.instances.as_ref().filter(|i| i.ids.len() == obs.0.photo.width * obs.0.photo.height);
-    let outlines = crate::stages::fit_light_outlines(&mut scene.0, &obs.0.photo.data, inst);
+    let outlines = crate::stages::fit_light_outlines(&mut scene.0, &obs.0.photo.data, inst, margin);
     let v = serde_json::to_value(&outlines).map_err(|e| Error::Invalid(e.to_string()))?;
     run.borrow_mut().recorded.insert("light_outlines".into(), v);
     Ok(outlines.into_iter().map(|o| Dynamic::from(o.name)).collect())
@@ -338,7 +346,11 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
     });
     let r = run.clone();
     engine.register_fn("outline_lights", move |s: &mut SceneHandle, obs: ObsHandle| -> Rr<Array> {
-        outline_lights(&r, s, &obs).map_err(rhai_err)
+        outline_lights(&r, s, &obs, &Map::new()).map_err(rhai_err)
+    });
+    let r = run.clone();
+    engine.register_fn("outline_lights", move |s: &mut SceneHandle, obs: ObsHandle, opts: Map| -> Rr<Array> {
+        outline_lights(&r, s, &obs, &opts).map_err(rhai_err)
     });
     engine.register_fn("is_visible_window", crate::stages::is_visible_window);
     engine.register_fn("is_visible_light", crate::stages::is_visible_light);

@@ -7,8 +7,9 @@
 //! L to the photo's pixels around it, each pixel's exact covered area from the projected rectangle clipped to
 //! the pixel's square.
 
-use super::window_lights::near_window;
+use super::window_lights::{is_room_surface, near_window};
 use super::{is_edge_ceiling_light, is_visible_light};
+use crate::render::scene_data::camera_gpu;
 use crate::scene::{Camera, Scene};
 use crate::vision::{is_low_dynamic_range, Instances};
 use glam::{Vec2, Vec3};
@@ -39,14 +40,7 @@ impl PlaneRect {
 
 /// World point to continuous pixel position (pixel corners at integers); None behind the camera.
 fn project(cam: &Camera, x: Vec3) -> Option<Vec2> {
-    let r = x - cam.origin;
-    let z = r.dot(cam.forward);
-    if z <= 1e-3 {
-        return None;
-    }
-    let t = cam.tan_half_fov();
-    let ndc = Vec2::new(r.dot(cam.right()) / (z * t * cam.aspect()), r.dot(cam.up) / (z * t));
-    Some(Vec2::new((ndc.x + 1.0) * 0.5 * cam.width as f32, (1.0 - ndc.y) * 0.5 * cam.height as f32))
+    crate::grad::project(&camera_gpu(cam), x).map(Vec2::from)
 }
 
 /// Area of a polygon (shoelace, either winding).
@@ -291,14 +285,19 @@ pub struct LightOutline {
 }
 
 /// Refits the outline of each light the photo shows (`is_visible_light`, and `is_edge_ceiling_light` on its
-/// sides in view) to `photo` (linear RGB at the camera's size) with its brightness fixed at its radiance's
+/// sides in view), each edge within `margin` pixels, to `photo` (linear RGB at the camera's size) with its brightness fixed at its radiance's
 /// brightest channel, the one that clips first: the light's initial outline took the brightness the photo's
 /// edge pixels suggest, but a grid-aligned edge is known only to the pixel it crosses, and the render clips
 /// that pixel or not by the radiance the fits gave it (real room09: a window 8 % dimmer than the truth's still
 /// clipped a ring of 198 pixels the photo does not). `inst` (at the camera's size), where given, leaves out
 /// furniture and other instances' pixels, and for a window all but its mask's and 2 pixels round it. Lights
 /// whose rectangle is not in front of the camera, or (8-bit photo) dimmer than its white, stay.
-pub fn fit_light_outlines(scene: &mut Scene, photo: &[f32], inst: Option<&Instances>) -> Vec<LightOutline> {
+pub fn fit_light_outlines(
+    scene: &mut Scene,
+    photo: &[f32],
+    inst: Option<&Instances>,
+    margin: f32,
+) -> Vec<LightOutline> {
     let cam = scene.camera.clone();
     let ldr = is_low_dynamic_range(photo);
     let mut out = vec![];
@@ -327,13 +326,7 @@ pub fn fit_light_outlines(scene: &mut Scene, photo: &[f32], inst: Option<&Instan
         let own = o.name.strip_prefix("light_window_").and_then(|id| id.parse::<u16>().ok());
         let usable = |p: usize| match (inst, own) {
             (Some(i), Some(id)) => near_window(i, id, p),
-            (Some(i), None) => {
-                let id = i.ids[p];
-                id == 0
-                    || i.instances
-                        .iter()
-                        .any(|x| x.id == id && ["wall", "floor", "ceiling"].contains(&x.class.as_str()))
-            }
+            (Some(i), None) => i.ids[p] == 0 || is_room_surface(i, i.ids[p]),
             (None, _) => true,
         };
         // A light the fits left dimmer than the photo's white cannot clip its edge pixels as the photo does:
@@ -342,7 +335,7 @@ pub fn fit_light_outlines(scene: &mut Scene, photo: &[f32], inst: Option<&Instan
         if ldr && brightness < 1.0 {
             continue;
         }
-        let Some(fit) = refine_outline(&cam, photo, &usable, start, 2.0, ldr, Some(brightness)) else { continue };
+        let Some(fit) = refine_outline(&cam, photo, &usable, start, margin, ldr, Some(brightness)) else { continue };
         let r = fit.rect;
         let footprint = |axis: Vec3, d: f32| {
             let at = |x: Vec3| project(&cam, x);
@@ -418,7 +411,7 @@ mod tests {
             pose: Pose { translation: at, rotation: Quat::IDENTITY, scale },
             emitter: Some(Emitter { radiance: Vec3::new(5.0, light, 4.0), two_sided: false }),
         });
-        let fitted = fit_light_outlines(&mut scene, &photo, None);
+        let fitted = fit_light_outlines(&mut scene, &photo, None, 2.0);
         assert_eq!(fitted.len(), 1, "{fitted:?}");
         let o = &scene.objects[0];
         let m = o.pose.matrix();

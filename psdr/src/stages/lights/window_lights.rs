@@ -20,6 +20,11 @@ pub fn is_visible_window(name: &str) -> bool {
 /// How far (pixels) the photo may move a window's edges from its pixels' range.
 const OUTLINE_MARGIN: f32 = 4.0;
 
+/// Whether instance `id` of `inst` is a room surface (a wall, the floor, the ceiling).
+pub(crate) fn is_room_surface(inst: &Instances, id: u16) -> bool {
+    inst.instances.iter().any(|x| x.id == id && ["wall", "floor", "ceiling"].contains(&x.class.as_str()))
+}
+
 /// Whether pixel `p` of `inst` tells where window instance `id`'s outline is: within 2 pixels of its mask (a
 /// pixel it covers in part reads white though its centre is the wall's; further out a clipped wall is the
 /// light's hot spot, not the window: real room04's wall beside its window clips), and the window's, the
@@ -27,9 +32,7 @@ const OUTLINE_MARGIN: f32 = 4.0;
 pub(crate) fn near_window(inst: &Instances, id: u16, p: usize) -> bool {
     let (w, h) = (inst.width, inst.height);
     let own = inst.ids[p];
-    let room =
-        |v: u16| inst.instances.iter().any(|x| x.id == v && ["wall", "floor", "ceiling"].contains(&x.class.as_str()));
-    if !(own == id || own == 0 || room(own)) {
+    if !(own == id || own == 0 || is_room_surface(inst, own)) {
         return false;
     }
     let (x, y) = (p % w, p / w);
