@@ -10,7 +10,7 @@
 
 use super::instance_merge::merge_split_instances;
 use super::object_support::{
-    back, back_to_the_wall, half_depth, hides_bottom, resting_on, wall_behind, wall_below, walls_of, Extent,
+    back, back_to_the_wall, base_height, half_depth, hides_bottom, wall_behind, wall_below, walls_of, Extent,
 };
 use super::pose_search::{
     align, distinct_yaws, footprint_size, percentile, pose_at, score, sweep_target, PoseRenderer, PoseSearch,
@@ -320,11 +320,7 @@ pub fn init_objects_with(
         }
         let (mut xs, mut zs, mut ys): (Vec<f32>, Vec<f32>, Vec<f32>) =
             (pts.iter().map(|p| p.x).collect(), pts.iter().map(|p| p.z).collect(), pts.iter().map(|p| p.y).collect());
-        // Support: the floor, unless the lowest points seen are well above it and another instance's points end
-        // right under them (a lamp on a table), or it is a lamp high up (hanging). A table whose legs are hidden
-        // still stands on the floor.
         let e = extent(&pts);
-        let bottom = e.bottom;
         let middle = Vec3::new(percentile(&mut xs, 0.5), 0.0, percentile(&mut zs, 0.5));
         // An instance in front of this one's bottom hides it: neither a support nor a sign that nothing stands
         // under it (real room09's open shelf behind an armchair, wall seen between its boards, was hung on the
@@ -334,16 +330,9 @@ pub fn init_objects_with(
             .filter(|(id, _)| *id != i.id)
             .partition(|(id, _)| hides_bottom(&inst.ids, depth, w, i.id, *id, opts.occluder_depth));
         let others: Vec<Extent> = others.into_iter().map(|(_, x)| x).collect();
-        // Hanging or mounted: a lamp high up, or anything raised whose mask has wall right under it (nothing
-        // that could hide legs or a support).
-        let hanging = bottom > floor_y + 0.15
-            && ((i.class == "lamp" && bottom > floor_y + 1.2) || (wall_below(inst, i.id) > 0.5 && hiders.is_empty()));
-        let support = if bottom > floor_y + 0.15 { resting_on(&e, middle, &others, floor_y) } else { None };
-        let base = match (support, hanging) {
-            (Some(top), _) => top,
-            (None, true) => bottom,
-            (None, false) => floor_y,
-        };
+        // Mounted: its mask has wall right under it, and nothing that could hide legs or a support.
+        let mounted = wall_below(inst, i.id) > 0.5 && hiders.is_empty();
+        let base = base_height(&i.class, &e, middle, &others, floor_y, mounted);
         let centre = Vec3::new(percentile(&mut xs, 0.5), base, percentile(&mut zs, 0.5));
         let top = (percentile(&mut ys, 0.99) - base).max(0.1);
         let footprint = Vec3::new(

@@ -19,7 +19,7 @@ pub(super) struct Extent {
 /// The top of the highest other instance whose floor-plane box holds this one's centre and whose points end
 /// below this one's bottom (a lamp on a table: the lamp's thin base may be hidden, so its lowest visible points
 /// can be well above the table): what it stands on, if anything.
-pub(super) fn resting_on(e: &Extent, centre: Vec3, others: &[Extent], floor_y: f32) -> Option<f32> {
+fn resting_on(e: &Extent, centre: Vec3, others: &[Extent], floor_y: f32) -> Option<f32> {
     others
         .iter()
         .filter(|o| {
@@ -30,6 +30,35 @@ pub(super) fn resting_on(e: &Extent, centre: Vec3, others: &[Extent], floor_y: f
         })
         .map(|o| o.top)
         .reduce(f32::max)
+}
+
+/// Classes that stand on the floor (`vision::classes`' canonical names): never on another object nor hung,
+/// whatever the lowest points the mask shows. Thin legs vanish from a mask at the working size, and a chair's
+/// seat then looks like its bottom (real room07's chrome-legged chair was set on a neighbour's top, 0.48 m up,
+/// and floated there). Lamps, plants, shelves and cabinets (a wall cupboard) may stand anywhere.
+const FLOOR_STANDING: &[&str] = &["sofa", "armchair", "chair", "table", "desk", "bed", "bookcase", "wardrobe"];
+
+/// The height an object's model stands at: the floor, unless its class may stand elsewhere and its lowest
+/// points seen are well above the floor; then on another instance whose points end right under them (a lamp
+/// on a table: `resting_on`), else at its lowest points where it is a lamp high up (hanging) or `mounted` (its
+/// mask has wall right under it). A table whose legs are hidden still stands on the floor.
+pub(super) fn base_height(
+    class: &str,
+    e: &Extent,
+    centre: Vec3,
+    others: &[Extent],
+    floor_y: f32,
+    mounted: bool,
+) -> f32 {
+    if e.bottom <= floor_y + 0.15 || FLOOR_STANDING.contains(&class) {
+        return floor_y;
+    }
+    let hanging = (class == "lamp" && e.bottom > floor_y + 1.2) || mounted;
+    match resting_on(e, centre, others, floor_y) {
+        Some(top) => top,
+        None if hanging => e.bottom,
+        None => floor_y,
+    }
 }
 
 /// Whether instance `other` hides instance `id`'s bottom rather than holding it up: where `id`'s pixels have
@@ -156,6 +185,30 @@ mod tests {
         assert_eq!(back_to_the_wall(&found, &[], 0.3, 0.02, eye).unwrap().0, 0.0);
         let far = [(180.0, 0.800, 0.9, at), (0.0, 0.700, 0.8, at)];
         assert_eq!(back_to_the_wall(&far, &[], 0.3, 0.02, eye).unwrap().0, 180.0);
+    }
+
+    /// A chair whose legs the mask lost (lowest points 0.45 m up) beside a stool-high instance whose box holds
+    /// its centre stands on the floor; a lamp seen the same way stands on that instance, and one with nothing
+    /// under it on the floor unless it is mounted or high up.
+    #[test]
+    fn furniture_stands_on_the_floor_a_lamp_on_what_is_under_it() {
+        let at = |bottom: f32, top: f32| Extent {
+            lo: Vec3::new(-0.3, 0.0, -0.3),
+            hi: Vec3::new(0.3, 0.0, 0.3),
+            bottom,
+            top,
+        };
+        let seat_up = at(0.45, 0.9);
+        let stool = [at(0.0, 0.40)];
+        let c = Vec3::ZERO;
+        assert_eq!(base_height("chair", &seat_up, c, &stool, 0.0, false), 0.0);
+        assert_eq!(base_height("chair", &seat_up, c, &stool, 0.0, true), 0.0);
+        assert_eq!(base_height("lamp", &seat_up, c, &stool, 0.0, false), 0.40);
+        assert_eq!(base_height("lamp", &seat_up, c, &[], 0.0, false), 0.0);
+        assert_eq!(base_height("cabinet", &seat_up, c, &[], 0.0, true), 0.45);
+        assert_eq!(base_height("lamp", &at(1.5, 1.8), c, &[], 0.0, false), 1.5);
+        // Its centre outside the stool's box: nothing holds it.
+        assert_eq!(base_height("plant", &seat_up, Vec3::new(1.0, 0.0, 0.0), &stool, 0.0, false), 0.0);
     }
 
     /// Instance 1 over instance 2 in a 4-column image (rows 0-2 and 3-5): 2 hides 1's bottom where it is 0.5 m
