@@ -390,3 +390,18 @@ pub fn stage_rooms() -> (crate::rooms::RoomSpec, Vec<Vec<Item>>) {
     ];
     (r, rooms)
 }
+
+/// An OBJ file's text with every vertex scaled per axis by `s` and its `mtllib` line dropped: a model of the same
+/// class with other proportions (a distractor, or a database model unlike the photo's).
+pub fn stretched_obj(text: &str, s: [f32; 3]) -> String {
+    text.lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(rest) => {
+                let v: Vec<f32> = rest.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                format!("v {} {} {}\n", v[0] * s[0], v[1] * s[1], v[2] * s[2])
+            }
+            None if l.starts_with("mtllib") => String::new(),
+            None => format!("{l}\n"),
+        })
+        .collect()
+}

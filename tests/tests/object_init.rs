@@ -7,7 +7,7 @@
 use glam::Vec3;
 use psdr::db::ModelSet;
 use psdr::stages::{init_objects, ObjectInitOptions};
-use psdr_tests::furniture::{furnished_room, symmetry, Item};
+use psdr_tests::furniture::{furnished_room, stretched_obj, symmetry, Item};
 use psdr_tests::rooms::{room_scene, RoomSpec};
 use psdr_tests::temp_dir;
 use std::path::{Path, PathBuf};
@@ -25,17 +25,7 @@ fn model_folder(dir: &Path) -> PathBuf {
         let text = std::fs::read_to_string(example_model(name)).unwrap();
         std::fs::write(db.join(format!("{name}.obj")), &text).unwrap();
         for (k, s) in stretches.iter().enumerate() {
-            let stretched: String = text
-                .lines()
-                .map(|l| match l.strip_prefix("v ") {
-                    Some(rest) => {
-                        let v: Vec<f32> = rest.split_whitespace().map(|x| x.parse().unwrap()).collect();
-                        format!("v {} {} {}\n", v[0] * s[0], v[1] * s[1], v[2] * s[2])
-                    }
-                    None if l.starts_with("mtllib") => String::new(),
-                    None => format!("{l}\n"),
-                })
-                .collect();
+            let stretched = stretched_obj(&text, *s);
             std::fs::write(db.join(format!("{name}_{k}.obj")), stretched).unwrap();
         }
     }
@@ -49,18 +39,7 @@ fn truth_folder(dir: &Path) -> PathBuf {
     for name in ["table", "chair", "cabinet"] {
         std::fs::copy(example_model(name), t.join(format!("{name}.obj"))).unwrap();
     }
-    let tall: String = std::fs::read_to_string(example_model("cabinet"))
-        .unwrap()
-        .lines()
-        .map(|l| match l.strip_prefix("v ") {
-            Some(rest) => {
-                let v: Vec<f32> = rest.split_whitespace().map(|x| x.parse().unwrap()).collect();
-                format!("v {} {} {}\n", v[0], v[1] * 4.5, v[2])
-            }
-            None if l.starts_with("mtllib") => String::new(),
-            None => format!("{l}\n"),
-        })
-        .collect();
+    let tall = stretched_obj(&std::fs::read_to_string(example_model("cabinet")).unwrap(), [1.0, 4.5, 1.0]);
     std::fs::write(t.join("cabinet_tall.obj"), tall).unwrap();
     t
 }

@@ -7,6 +7,7 @@
 
 use psdr::backend::CpuBackend;
 use psdr::script::{run_script, RunOptions, ScriptRun};
+use psdr_tests::furniture::stretched_obj;
 use std::path::{Path, PathBuf};
 
 fn repo(rel: &str) -> PathBuf {
@@ -18,17 +19,7 @@ fn squashed_cabinet(dir: &Path, sx: f32) -> PathBuf {
     let db = dir.join("db");
     std::fs::create_dir_all(&db).unwrap();
     let text = std::fs::read_to_string(repo("examples/models/cabinet.obj")).unwrap();
-    let squashed: String = text
-        .lines()
-        .map(|l| match l.strip_prefix("v ") {
-            Some(rest) => {
-                let v: Vec<f32> = rest.split_whitespace().map(|x| x.parse().unwrap()).collect();
-                format!("v {} {} {}\n", v[0] * sx, v[1], v[2])
-            }
-            None if l.starts_with("mtllib") => String::new(),
-            None => format!("{l}\n"),
-        })
-        .collect();
+    let squashed = stretched_obj(&text, [sx, 1.0, 1.0]);
     std::fs::write(db.join("cabinet.obj"), squashed).unwrap();
     db
 }
