@@ -4,7 +4,8 @@
 //! height and pitch, every ground-truth object matched to the nearest fitted object of its class (centre error
 //! relative to the camera distance, yaw relative to the camera's, height ratio, whether the model is the same),
 //! the light counts, the render against the photo (RMSE at 1/8 size relative to the photo's mean, SSIM of
-//! the luminance at full size; the render clamped where an 8-bit photo clips), and the albedos the fit gives each surface the truth shows (floor, walls,
+//! the luminance at full size; the render clamped where an 8-bit photo clips; `noise_and_bias` splits the
+//! RMSE into the render's noise and the rest, given a second render), and the albedos the fit gives each surface the truth shows (floor, walls,
 //! ceiling, every piece of furniture), pixel by pixel through both scenes' albedo images; and, given the photo's
 //! instance masks, every fitted object's rendered pixels against the instance it was fitted to (mask IoU).
 
@@ -133,32 +134,50 @@ fn furniture(s: &Scene) -> Vec<Seen> {
         .collect()
 }
 
-/// Root-mean-square error of `a` against `b` (RGB, `w` x `h`) after `k` x `k` box downsampling, relative to
-/// `b`'s mean.
-pub fn relative_rmse_downsampled(a: &[f32], b: &[f32], w: usize, h: usize, k: usize) -> f32 {
+/// The `k` x `k` box means of an RGB image (`w` x `h`), block by block, channel by channel; blocks at the
+/// right and bottom edges take the pixels that are left.
+fn block_means(img: &[f32], w: usize, h: usize, k: usize) -> Vec<f64> {
     let (sw, sh) = ((w / k).max(1), (h / k).max(1));
-    let cell = |img: &[f32], x: usize, y: usize, c: usize| {
-        let (mut sum, mut n) = (0.0f32, 0.0f32);
-        for yy in y * k..((y + 1) * k).min(h) {
-            for xx in x * k..((x + 1) * k).min(w) {
-                sum += img[(yy * w + xx) * 3 + c];
-                n += 1.0;
-            }
-        }
-        sum / n.max(1.0)
-    };
-    let (mut se, mut mean) = (0.0f64, 0.0f64);
+    let mut out = Vec::with_capacity(sw * sh * 3);
     for y in 0..sh {
         for x in 0..sw {
             for c in 0..3 {
-                let (p, q) = (cell(a, x, y, c) as f64, cell(b, x, y, c) as f64);
-                se += (p - q) * (p - q);
-                mean += q;
+                let (mut sum, mut n) = (0.0f32, 0.0f32);
+                for yy in y * k..((y + 1) * k).min(h) {
+                    for xx in x * k..((x + 1) * k).min(w) {
+                        sum += img[(yy * w + xx) * 3 + c];
+                        n += 1.0;
+                    }
+                }
+                out.push((sum / n.max(1.0)) as f64);
             }
         }
     }
-    let n = (sw * sh * 3) as f64;
-    ((se / n).sqrt() / (mean / n).max(1e-9)) as f32
+    out
+}
+
+/// Root-mean-square error of `a` against `b` (RGB, `w` x `h`) after `k` x `k` box downsampling, relative to
+/// `b`'s mean.
+pub fn relative_rmse_downsampled(a: &[f32], b: &[f32], w: usize, h: usize, k: usize) -> f32 {
+    let (a, b) = (block_means(a, w, h, k), block_means(b, w, h, k));
+    let se: f64 = a.iter().zip(&b).map(|(p, q)| (p - q) * (p - q)).sum();
+    let n = b.len() as f64;
+    ((se / n).sqrt() / (b.iter().sum::<f64>() / n).max(1e-9)) as f32
+}
+
+/// A Monte Carlo render's error against a photo split into the render's own noise and the rest, both as
+/// `relative_rmse_downsampled` measures: `render` and `repeat` are two renders of one scene with independent
+/// samples at the same spp. Their difference holds twice one render's noise variance and none of the scene's
+/// error, so E[(render - photo)^2] less E[(render - repeat)^2] / 2 is the squared error a converged render
+/// would have (the photo's own noise stays in it). Returns (noise, bias); the bias is 0 where the noise
+/// estimate exceeds the error (a render as close to the photo as its noise can tell).
+pub fn noise_and_bias(render: &[f32], repeat: &[f32], photo: &[f32], w: usize, h: usize, k: usize) -> (f32, f32) {
+    let (a, r, p) = (block_means(render, w, h, k), block_means(repeat, w, h, k), block_means(photo, w, h, k));
+    let n = p.len() as f64;
+    let mean = (p.iter().sum::<f64>() / n).max(1e-9);
+    let error: f64 = a.iter().zip(&p).map(|(x, y)| (x - y) * (x - y)).sum::<f64>() / n;
+    let noise: f64 = a.iter().zip(&r).map(|(x, y)| (x - y) * (x - y)).sum::<f64>() / (2.0 * n);
+    ((noise.sqrt() / mean) as f32, ((error - noise).max(0.0).sqrt() / mean) as f32)
 }
 
 /// Mean SSIM of the luminance of two RGB images (7 x 7 windows, the usual constants for values in 0..1).
@@ -494,6 +513,40 @@ mod tests {
         let b: Vec<f32> = a.iter().map(|v| v * 1.1).collect();
         assert!(ssim_luminance(&b, &a, w, h) < 1.0);
         assert_eq!(angle_diff(350.0, 10.0), -20.0);
+    }
+
+    /// Two renders with independent noise of known size (uniform per pixel, 5 % of the mean per 8x8 block)
+    /// around a photo, one with a 5 % gain: the split gives back both sizes. 16x12 blocks x 3 channels = 576
+    /// values: each squared-error mean has a relative standard deviation of sqrt(2/576) = 6 %, so 15 % is
+    /// 2.5 of them; with no gain the estimated bias is under 0.45 of the noise (its square, a difference of
+    /// two such means, has a standard deviation of 0.06 of the noise's square: 0.45^2 is over 3 of them).
+    #[test]
+    fn image_error_splits_into_noise_and_bias() {
+        let (w, h) = (128, 96);
+        let photo = vec![0.5f32; w * h * 3];
+        // A deterministic hash to uniform [-1, 1): independent draws for the two renders.
+        let uniform = |i: usize, seed: u64| {
+            let mut x = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ seed.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            x ^= x >> 31;
+            x = x.wrapping_mul(0x94D0_49BB_1331_11EB);
+            x ^= x >> 29;
+            (x >> 11) as f32 / (1u64 << 53) as f32 * 2.0 - 1.0
+        };
+        // Per-pixel standard deviation 0.2 (a uniform of half-width 0.2 sqrt 3): 0.025 per block, 5 % of 0.5.
+        let render = |gain: f32, seed: u64| -> Vec<f32> {
+            (0..w * h * 3).map(|i| 0.5 * gain + 0.2 * 3f32.sqrt() * uniform(i, seed)).collect()
+        };
+        let (noise, bias) = noise_and_bias(&render(1.05, 1), &render(1.05, 2), &photo, w, h, 8);
+        assert!((noise - 0.05).abs() < 0.15 * 0.05, "noise {noise}");
+        assert!((bias - 0.05).abs() < 0.15 * 0.05, "bias {bias}");
+        let total = relative_rmse_downsampled(&render(1.05, 1), &photo, w, h, 8);
+        assert!((total - 0.05 * 2f32.sqrt()).abs() < 0.15 * 0.07, "total {total}");
+        let (noise, bias) = noise_and_bias(&render(1.0, 3), &render(1.0, 4), &photo, w, h, 8);
+        assert!(bias < 0.45 * noise, "no gain: noise {noise}, bias {bias}");
+        // Without noise the bias is the error itself.
+        let exact = render(1.05, 0).iter().map(|_| 0.525).collect::<Vec<f32>>();
+        let (noise, bias) = noise_and_bias(&exact, &exact, &photo, w, h, 8);
+        assert!(noise == 0.0 && (bias - 0.05).abs() < 1e-5, "{noise} {bias}");
     }
 
     /// The least-sum matching against every injective assignment, on random distance tables of every shape up
