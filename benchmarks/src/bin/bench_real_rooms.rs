@@ -77,14 +77,22 @@ const PRESETS: [(&str, &[&str]); 2] = [
         ],
     ),
 ];
-/// The evaluation's samples per pixel (scripts/room.rhai `evaluation_spp`).
-const EVALUATION_SPP: u32 = 16;
+/// The samples per pixel the runs' evaluation renders at: scripts/room.rhai's `evaluation_spp`, read from the
+/// script so that the truth rows are rendered as the runs are (a constant of 16 here had drifted from the
+/// script's 64 since 2026-11-27: the truth rows held 4x the runs' noise variance).
+fn evaluation_spp() -> anyhow::Result<u32> {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/room.rhai");
+    let text = std::fs::read_to_string(&script)?;
+    text.lines()
+        .find_map(|l| l.trim().strip_prefix("let evaluation_spp =")?.split(';').next()?.trim().parse().ok())
+        .ok_or_else(|| anyhow::anyhow!("{}: no `let evaluation_spp = N;`", script.display()))
+}
 /// Samples per pixel of a run's final render.png (and of the truth's, for the clipped image error).
 const PREVIEW_SPP: u32 = 4;
 
 const HEADER: &str = "room,mode,crashed,error,sets,objects_true,objects_found,same_class,same_model,mask_iou_median,\
 mask_iou_worst,image_rmse_1_8_pct,ssim,albedo_median_err_pct,lights_true,lights_fitted,s_room,s_objects,s_lights,\
-s_materials,s_total,image_rmse_clipped_1_8_pct";
+s_materials,s_total,image_rmse_clipped_1_8_pct,image_noise_1_8_pct,image_bias_1_8_pct";
 
 /// Column indices of the CSV (see HEADER).
 const COL_IOU: usize = 9;
@@ -175,18 +183,36 @@ fn write_known_starts(room_dir: &Path) -> psdr::Result<()> {
 /// `truth` (image error and SSIM only).
 fn truth_floor(room_dir: &Path, room: &str) -> anyhow::Result<String> {
     let mut truth = psdr::scene::load_scene(&room_dir.join("truth.json"))?;
-    truth.settings.spp = EVALUATION_SPP;
-    let f = psdr::render::render_cpu(&psdr::render::SceneData::build(&truth)?, &truth.settings, &|_, _| {});
+    truth.settings.spp = evaluation_spp()?;
+    // Samples of its own: the photo was rendered from truth.json with its seed, and that seed would replay
+    // the photo's first samples (at 64 of its 128 the error was the noise over the square root of 2, 0.75 %
+    // where the noise is 1.07 %: a floor below what any independent render reaches).
+    truth.settings.seed = truth.settings.seed.wrapping_add(1);
+    let data = psdr::render::SceneData::build(&truth)?;
+    let f = psdr::render::render_cpu(&data, &truth.settings, &|_, _| {});
+    // The evaluation's repeat: the same render with other samples (its noise against the rest).
+    let mut repeat = truth.settings.clone();
+    repeat.seed = repeat.seed.wrapping_add(1);
+    let f2 = psdr::render::render_cpu(&data, &repeat, &|_, _| {});
     let photo = psdr::vision::load_photo(&room_dir.join("photo.png"))?;
     let (w, h) = (photo.width, photo.height);
     // Clamped where the photo clips, as the evaluation compares a run's render (unclamped, a visible lamp
     // made this column hundreds of percent).
     let render = psdr::vision::clip_like_photo(&f.radiance, &photo.data);
+    let render2 = psdr::vision::clip_like_photo(&f2.radiance, &photo.data);
     let rmse = psdr::stages::relative_rmse_downsampled(&render, &photo.data, w, h, 8);
+    let (noise, bias) = psdr::stages::noise_and_bias(&render, &render2, &photo.data, w, h, 8);
     let ssim = psdr::stages::ssim_luminance(&render, &photo.data, w, h);
     let blanks = |n: usize| ",".repeat(n);
     let clipped = truth_clipped(room_dir)?;
-    Ok(format!("{room},truth,0,,{},{:.2},{ssim:.3}{},{clipped:.2}\n", blanks(6), rmse * 100.0, blanks(8)))
+    Ok(format!(
+        "{room},truth,0,,{},{:.2},{ssim:.3}{},{clipped:.2},{:.2},{:.2}\n",
+        blanks(6),
+        rmse * 100.0,
+        blanks(8),
+        noise * 100.0,
+        bias * 100.0
+    ))
 }
 
 /// The image error as the photo's 8-bit encoding sees a render: the run's render.png (PREVIEW_SPP, clipped
@@ -203,6 +229,7 @@ fn clipped_rmse(render_png: &Path, photo_png: &Path) -> anyhow::Result<f64> {
 fn truth_clipped(room_dir: &Path) -> anyhow::Result<f64> {
     let mut truth = psdr::scene::load_scene(&room_dir.join("truth.json"))?;
     truth.settings.spp = PREVIEW_SPP;
+    truth.settings.seed = truth.settings.seed.wrapping_add(1); // not the photo's samples (`truth_floor`)
     let f = psdr::render::render_cpu(&psdr::render::SceneData::build(&truth)?, &truth.settings, &|_, _| {});
     let png = room_dir.join("truth_render.png");
     psdr::output::write_png_srgb(&png, truth.camera.width, truth.camera.height, &f.radiance)?;
@@ -212,16 +239,18 @@ fn truth_clipped(room_dir: &Path) -> anyhow::Result<f64> {
 /// The clipped image error of a finished row (`BENCH_REAL_ROOMS_RESCORE`): from the run's render.png, or the
 /// truth's render for a `truth` row; empty for a crashed run.
 fn rescore(dir: &Path, row: &str) -> String {
-    let cols: Vec<&str> = row.split(',').collect();
-    let base = cols[..HEADER.split(',').count() - 1].join(",");
-    let (room, mode, crashed) = (cols[0], cols[1], cols[2] == "1");
+    let mut cols: Vec<String> = row.split(',').map(String::from).collect();
+    cols.resize(HEADER.split(',').count(), String::new());
+    let (room, mode, crashed) = (cols[0].clone(), cols[1].clone(), cols[2] == "1");
+    let (room, mode) = (room.as_str(), mode.as_str());
     let room_dir = dir.join(room);
     let value = match (crashed, mode) {
         (true, _) => None,
         (false, "truth") => truth_clipped(&room_dir).ok(),
         (false, m) => clipped_rmse(&room_dir.join(format!("out-{m}/render.png")), &room_dir.join("photo.png")).ok(),
     };
-    format!("{base},{}", value.map(|v| format!("{v:.2}")).unwrap_or_default())
+    cols[COL_CLIPPED] = value.map(|v| format!("{v:.2}")).unwrap_or_default();
+    cols.join(",")
 }
 
 /// The `--set` overrides of a preset mode (none for the other modes).
@@ -237,7 +266,8 @@ fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) 
     files.sort();
     files.dedup();
     let set_text = field([preset_sets(mode).join(" "), sets.join(" ")].join(" ").trim());
-    let crashed = |e: String| format!("{room},{mode},1,{},{set_text}{}\n", field(&e), ",".repeat(17));
+    let crashed =
+        |e: String| format!("{room},{mode},1,{},{set_text}{}\n", field(&e), ",".repeat(HEADER.split(',').count() - 5));
     if mode == "truth" {
         return truth_floor(room_dir, room).unwrap_or_else(|e| crashed(e.to_string()));
     }
@@ -333,7 +363,7 @@ fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) 
         .map(|v| format!("{v:.2}"))
         .unwrap_or_default();
     format!(
-        "{room},{mode},0,,{set_text},{},{},{same_class},{same_model},{:.3},{:.3},{:.2},{:.3},{albedo_median:.1},{},{},{:.1},{:.1},{:.1},{:.1},{:.1},{clipped}\n",
+        "{room},{mode},0,,{set_text},{},{},{same_class},{same_model},{:.3},{:.3},{:.2},{:.3},{albedo_median:.1},{},{},{:.1},{:.1},{:.1},{:.1},{:.1},{clipped},{:.2},{:.2}\n",
         models.len(),
         e["objects_found"],
         num(&e["mask_iou"]["median"]),
@@ -347,6 +377,8 @@ fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) 
         stage("lights"),
         stage("materials"),
         num(&r["total_seconds"]),
+        num(&e["image"]["noise_rel_1_8"]) * 100.0,
+        num(&e["image"]["bias_rel_1_8"]) * 100.0,
     )
 }
 
@@ -473,9 +505,9 @@ fn merge(old: &str, new: &[String]) -> String {
     let mut lines: Vec<String> = old
         .lines()
         .skip(1)
-        // Rows written before the clipped column was added get it empty.
-        .filter(|l| !l.is_empty() && l.split(',').count() + 1 >= HEADER.split(',').count())
-        .map(|l| if l.split(',').count() < HEADER.split(',').count() { format!("{l},") } else { l.to_string() })
+        // Rows written before the clipped, noise and bias columns were added get them empty.
+        .filter(|l| !l.is_empty() && l.split(',').count() >= COL_CLIPPED)
+        .map(|l| format!("{l}{}", ",".repeat(HEADER.split(',').count().saturating_sub(l.split(',').count()))))
         .filter(|l| !new.iter().any(|n| key(n) == key(l)))
         .collect();
     lines.extend(new.iter().map(|n| n.trim_end().to_string()));
