@@ -160,9 +160,16 @@ fn block_means(img: &[f32], w: usize, h: usize, k: usize) -> Vec<f64> {
 /// `b`'s mean.
 pub fn relative_rmse_downsampled(a: &[f32], b: &[f32], w: usize, h: usize, k: usize) -> f32 {
     let (a, b) = (block_means(a, w, h, k), block_means(b, w, h, k));
-    let se: f64 = a.iter().zip(&b).map(|(p, q)| (p - q) * (p - q)).sum();
-    let n = b.len() as f64;
-    ((se / n).sqrt() / (b.iter().sum::<f64>() / n).max(1e-9)) as f32
+    (mean_squared_difference(&a, &b).sqrt() / mean(&b)) as f32
+}
+
+fn mean_squared_difference(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| (p - q) * (p - q)).sum::<f64>() / b.len().max(1) as f64
+}
+
+/// The mean of `v`, at least 1e-9 (a relative error's denominator).
+fn mean(v: &[f64]) -> f64 {
+    (v.iter().sum::<f64>() / v.len().max(1) as f64).max(1e-9)
 }
 
 /// A Monte Carlo render's error against a photo split into the render's own noise and the rest, both as
@@ -173,10 +180,7 @@ pub fn relative_rmse_downsampled(a: &[f32], b: &[f32], w: usize, h: usize, k: us
 /// estimate exceeds the error (a render as close to the photo as its noise can tell).
 pub fn noise_and_bias(render: &[f32], repeat: &[f32], photo: &[f32], w: usize, h: usize, k: usize) -> (f32, f32) {
     let (a, r, p) = (block_means(render, w, h, k), block_means(repeat, w, h, k), block_means(photo, w, h, k));
-    let n = p.len() as f64;
-    let mean = (p.iter().sum::<f64>() / n).max(1e-9);
-    let error: f64 = a.iter().zip(&p).map(|(x, y)| (x - y) * (x - y)).sum::<f64>() / n;
-    let noise: f64 = a.iter().zip(&r).map(|(x, y)| (x - y) * (x - y)).sum::<f64>() / (2.0 * n);
+    let (error, noise, mean) = (mean_squared_difference(&a, &p), mean_squared_difference(&a, &r) / 2.0, mean(&p));
     ((noise.sqrt() / mean) as f32, ((error - noise).max(0.0).sqrt() / mean) as f32)
 }
 
@@ -544,7 +548,7 @@ mod tests {
         let (noise, bias) = noise_and_bias(&render(1.0, 3), &render(1.0, 4), &photo, w, h, 8);
         assert!(bias < 0.45 * noise, "no gain: noise {noise}, bias {bias}");
         // Without noise the bias is the error itself.
-        let exact = render(1.05, 0).iter().map(|_| 0.525).collect::<Vec<f32>>();
+        let exact = vec![0.525f32; w * h * 3];
         let (noise, bias) = noise_and_bias(&exact, &exact, &photo, w, h, 8);
         assert!(noise == 0.0 && (bias - 0.05).abs() < 1e-5, "{noise} {bias}");
     }
