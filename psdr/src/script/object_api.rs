@@ -47,6 +47,7 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
             "max_candidates" => o.max_candidates = num.max(1.0) as usize,
             "scale_weight" => o.scale_weight = num as f32,
             "finalists" => o.finalists = num.max(1.0) as usize,
+            "scale_step" => o.scale_step = num.clamp(0.0, 0.5) as f32,
             "silhouette_weight" => o.silhouette_weight = num.max(0.0) as f32,
             "embedding_weight" => embedding_weight = num.max(0.0) as f32,
             "merge_bridges" => o.merge_bridges = num.max(0.0) as usize,
@@ -57,7 +58,7 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
             other => {
                 return Err(Error::Invalid(format!(
                     "objects_init: unknown option '{other}' (db, placeholders, min_pixels, erode, yaws, sweep_width, top_k, depth_weight, max_candidates, \
-                     scale_weight, finalists, silhouette_weight, embedding, embedding_weight, merge_bridges, \
+                     scale_weight, finalists, scale_step, silhouette_weight, embedding, embedding_weight, merge_bridges, \
                      merge_depth_tolerance, merge_min_span, wall_tie, occluder_depth)"
                 )))
             }

@@ -47,6 +47,9 @@ pub struct ObjectInitOptions {
     pub scale_weight: f32,
     /// Leaders of the sweep compared again at twice its resolution.
     pub finalists: usize,
+    /// The finalists' search moves the scale by this factor first (1 +- it; 0: the scale stays as the visible
+    /// points' height set it).
+    pub scale_step: f32,
     /// Weight of the outline mismatch (1 - silhouette IoU) against the size misfit when a class has more
     /// than `max_candidates` models.
     pub silhouette_weight: f32,
@@ -79,7 +82,8 @@ impl Default for ObjectInitOptions {
             depth_weight: 1.0,
             max_candidates: 8,
             scale_weight: 1.0,
-            finalists: 3,
+            finalists: 5,
+            scale_step: 0.08,
             silhouette_weight: 1.0,
             merge_bridges: 3,
             merge_depth_tolerance: 0.1,
@@ -467,30 +471,38 @@ pub fn init_objects_with(
             continue;
         }
         // The leaders searched again at twice the sweep's resolution from their three best distinct yaws:
-        // translation and yaw by a compass search on the same score, so that poses the median alignment could
-        // not place (an object cut by the border shows a part whose median moves as it slides) are found, and
-        // small objects' close variants get the pixels to be told apart.
+        // translation, yaw and scale by a compass search on the same score, so that poses the median alignment
+        // could not place (an object cut by the border shows a part whose median moves as it slides) are found,
+        // a model whose visible height undersold its size gets it back, and small objects' close variants get
+        // the pixels to be told apart.
         let (fw, fh) = ((2 * sw).min(w as u32), ((2 * sw).min(w as u32) as usize * h / w).max(6) as u32);
         let fine_target = sweep_target(inst, depth, i.id, fw as usize, fh as usize);
         let mut finals: Vec<(Candidate, f32, Vec3, usize)> = vec![];
         for &o in order.iter().take(opts.finalists.max(1)) {
             let (c, parts, scale) = &options[o];
             let Some(mut renderer) = PoseRenderer::new(cam, parts, fw, fh) else { continue };
+            let search = PoseSearch {
+                target: &fine_target,
+                unit_size: footprint_size(parts),
+                scale_weight: opts.scale_weight,
+                depth_weight: opts.depth_weight,
+                scale_step: opts.scale_step,
+            };
             let size = footprint_size(parts) * scale;
-            let prior = opts.scale_weight * scale.ln().abs();
-            let search = PoseSearch { target: &fine_target, size, prior, depth_weight: opts.depth_weight };
             let yaw_step = 180.0 / opts.yaws.max(1) as f32;
-            let found: Vec<(f32, f32, f32, Vec3)> = distinct_yaws(&starts[o], 3, 4.0 * yaw_step)
+            let found: Vec<(f32, f32, f32, Vec3, f32)> = distinct_yaws(&starts[o], 3, 4.0 * yaw_step)
                 .into_iter()
                 .filter_map(|(yaw, t, _)| {
                     let pose = align(cam, &mut renderer, pose_at(t, yaw, *scale), &fine_target, fw, fh);
                     search.compass(&mut renderer, pose, yaw, 0.15 * size, yaw_step)
                 })
                 .collect();
+            let poses: Vec<(f32, f32, f32, Vec3)> = found.iter().map(|f| (f.0, f.1, f.2, f.3)).collect();
             let reach = half_depth(parts) * scale;
-            if let Some((yaw, sc, iou, t)) = back_to_the_wall(&found, &walls, reach, opts.wall_tie, cam.origin) {
+            if let Some(pick) = back_to_the_wall(&poses, &walls, reach, opts.wall_tie, cam.origin) {
+                let (yaw, sc, iou, t, found_scale) = found[poses.iter().position(|p| *p == pick).unwrap_or(0)];
                 let chosen = Candidate { yaw_deg: yaw.rem_euclid(360.0), iou, score: sc, ..c.clone() };
-                finals.push((chosen, *scale, t, o));
+                finals.push((chosen, found_scale, t, o));
             }
         }
         finals.sort_by(|a, b| b.0.score.total_cmp(&a.0.score));

@@ -178,25 +178,32 @@ pub(super) fn distinct_yaws(starts: &[(f32, Vec3, f32)], n: usize, apart: f32) -
     kept
 }
 
-/// A local search of one model's pose on the floor (translation x/z and yaw) for the best sweep score.
+/// A local search of one model's pose on the floor (translation x/z, yaw and scale) for the best sweep score.
 pub(super) struct PoseSearch<'a> {
     pub target: &'a SweepTarget,
-    pub size: f32,
-    pub prior: f32,
+    /// The model's footprint size at scale 1 (the depth misfit is measured in object sizes).
+    pub unit_size: f32,
+    /// Weight of |ln scale| in the score (real models have real sizes).
+    pub scale_weight: f32,
     pub depth_weight: f32,
+    /// The first relative scale step (0: the scale stays where it starts).
+    pub scale_step: f32,
 }
 
 impl PoseSearch<'_> {
     /// (score, iou) of `pose`.
     pub(super) fn eval(&self, renderer: &mut PoseRenderer, pose: Pose) -> Option<(f32, f32)> {
+        let scale = pose.scale.x;
         let (ids, d) = renderer.render(pose)?;
-        let (iou, s) = score(self.target, &ids, &d, self.size, self.depth_weight);
-        Some((s - self.prior, iou))
+        let (iou, s) = score(self.target, &ids, &d, self.unit_size * scale, self.depth_weight);
+        Some((s - self.scale_weight * scale.ln().abs(), iou))
     }
 
-    /// Compass search from `pose` (whose yaw is `yaw` degrees): steps of `step` metres and `yaw_step` degrees
-    /// along x, z and yaw, repeated while one improves, then halved, four times. Returns (yaw, score, iou,
-    /// translation).
+    /// Compass search from `pose` (whose yaw is `yaw` degrees): steps of `step` metres, `yaw_step` degrees
+    /// and a factor 1 +- `scale_step` along x, z, yaw and scale, repeated while one improves, then halved, four
+    /// times. The scale moves because it starts from the visible points' height, which a hidden or cushioned
+    /// top underestimates: the true model at 0.93 of its size lost to another (real room00's couch, IoU 0.88
+    /// against 0.90). Returns (yaw, score, iou, translation, scale).
     pub(super) fn compass(
         &self,
         renderer: &mut PoseRenderer,
@@ -204,24 +211,30 @@ impl PoseSearch<'_> {
         mut yaw: f32,
         mut step: f32,
         mut yaw_step: f32,
-    ) -> Option<(f32, f32, f32, Vec3)> {
+    ) -> Option<(f32, f32, f32, Vec3, f32)> {
         let (mut best, mut iou) = self.eval(renderer, pose)?;
-        let (mut t, scale) = (pose.translation, pose.scale.x);
+        let (mut t, mut scale) = (pose.translation, pose.scale.x);
+        let mut scale_step = self.scale_step;
         for _ in 0..4 {
             for _ in 0..4 {
                 let moves = [
-                    (Vec3::X * step, 0.0),
-                    (-Vec3::X * step, 0.0),
-                    (Vec3::Z * step, 0.0),
-                    (-Vec3::Z * step, 0.0),
-                    (Vec3::ZERO, yaw_step),
-                    (Vec3::ZERO, -yaw_step),
+                    (Vec3::X * step, 0.0, 1.0),
+                    (-Vec3::X * step, 0.0, 1.0),
+                    (Vec3::Z * step, 0.0, 1.0),
+                    (-Vec3::Z * step, 0.0, 1.0),
+                    (Vec3::ZERO, yaw_step, 1.0),
+                    (Vec3::ZERO, -yaw_step, 1.0),
+                    (Vec3::ZERO, 0.0, 1.0 + scale_step),
+                    (Vec3::ZERO, 0.0, 1.0 / (1.0 + scale_step)),
                 ];
                 let mut moved = false;
-                for (dt, dyaw) in moves {
-                    if let Some((s, i)) = self.eval(renderer, pose_at(t + dt, yaw + dyaw, scale)) {
+                for (dt, dyaw, ds) in moves {
+                    if ds == 1.0 && dt == Vec3::ZERO && dyaw == 0.0 {
+                        continue;
+                    }
+                    if let Some((s, i)) = self.eval(renderer, pose_at(t + dt, yaw + dyaw, scale * ds)) {
                         if s > best {
-                            (best, iou, t, yaw, moved) = (s, i, t + dt, yaw + dyaw, true);
+                            (best, iou, t, yaw, scale, moved) = (s, i, t + dt, yaw + dyaw, scale * ds, true);
                         }
                     }
                 }
@@ -231,7 +244,43 @@ impl PoseSearch<'_> {
             }
             step /= 2.0;
             yaw_step /= 2.0;
+            scale_step /= 2.0;
         }
-        Some((yaw, best, iou, t))
+        Some((yaw, best, iou, t, scale))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::box_mesh;
+
+    /// A model whose search starts at 0.9 of its size (the visible points' height short of a hidden top) is
+    /// found at its own size, where its render covers the instance; with the scale step 0 the scale stays.
+    #[test]
+    fn the_finalists_search_finds_the_size_the_height_missed() {
+        let (w, h) = (96u32, 72u32);
+        let cam = Camera::look_at(Vec3::new(0.0, 1.5, 4.0), Vec3::new(0.0, 0.4, 0.0), Vec3::Y, 50.0, w, h);
+        let mut part = box_mesh(Vec3::new(1.2, 0.8, 0.5), false);
+        part.positions.iter_mut().for_each(|v| v.y += 0.4);
+        let parts = vec![part];
+        let mut renderer = PoseRenderer::new(&cam, &parts, w, h).unwrap();
+        let at = Vec3::new(0.1, 0.0, -0.2);
+        let (ids, depth) = renderer.render(pose_at(at, 20.0, 1.0)).unwrap();
+        let target =
+            SweepTarget { w: w as usize, h: h as usize, mask: ids.iter().map(|&i| Some(i == 0)).collect(), depth };
+        let search = |scale_step| PoseSearch {
+            target: &target,
+            unit_size: footprint_size(&parts),
+            scale_weight: 1.0,
+            depth_weight: 1.0,
+            scale_step,
+        };
+        let start = pose_at(at, 20.0, 0.9);
+        let (_, score, iou, _, scale) = search(0.08).compass(&mut renderer, start, 20.0, 0.15, 11.25).unwrap();
+        assert!((scale - 1.0).abs() < 0.02 && iou > 0.97, "scale {scale}, IoU {iou}");
+        let (_, held_score, _, _, held) = search(0.0).compass(&mut renderer, start, 20.0, 0.15, 11.25).unwrap();
+        assert_eq!(held, 0.9);
+        assert!(held_score < score, "held {held_score}, searched {score}");
     }
 }
