@@ -10,7 +10,7 @@
 
 use super::instance_merge::merge_split_instances;
 use super::object_support::{
-    back, back_to_the_wall, base_height, half_depth, hides_bottom, wall_behind, wall_below, walls_of, Extent,
+    back, back_to_the_wall, base_height, half_depth, hides_bottom, wall_behind, wall_below, walls_of, Extent, FoundPose,
 };
 use super::pose_search::{
     align, distinct_yaws, footprint_size, percentile, pose_at, score, sweep_target, PoseRenderer, PoseSearch,
@@ -490,17 +490,17 @@ pub fn init_objects_with(
             };
             let size = footprint_size(parts) * scale;
             let yaw_step = 180.0 / opts.yaws.max(1) as f32;
-            let found: Vec<(f32, f32, f32, Vec3, f32)> = distinct_yaws(&starts[o], 3, 4.0 * yaw_step)
+            let found: Vec<FoundPose> = distinct_yaws(&starts[o], 3, 4.0 * yaw_step)
                 .into_iter()
                 .filter_map(|(yaw, t, _)| {
                     let pose = align(cam, &mut renderer, pose_at(t, yaw, *scale), &fine_target, fw, fh);
                     search.compass(&mut renderer, pose, yaw, 0.15 * size, yaw_step)
                 })
                 .collect();
-            let poses: Vec<(f32, f32, f32, Vec3)> = found.iter().map(|f| (f.0, f.1, f.2, f.3)).collect();
             let reach = half_depth(parts) * scale;
-            if let Some(pick) = back_to_the_wall(&poses, &walls, reach, opts.wall_tie, cam.origin) {
-                let (yaw, sc, iou, t, found_scale) = found[poses.iter().position(|p| *p == pick).unwrap_or(0)];
+            if let Some((yaw, sc, iou, t, found_scale)) =
+                back_to_the_wall(&found, &walls, reach, opts.wall_tie, cam.origin)
+            {
                 let chosen = Candidate { yaw_deg: yaw.rem_euclid(360.0), iou, score: sc, ..c.clone() };
                 finals.push((chosen, found_scale, t, o));
             }

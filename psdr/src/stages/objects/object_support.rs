@@ -118,23 +118,26 @@ pub(super) fn back(yaw_deg: f32) -> Vec3 {
     Quat::from_rotation_y(yaw_deg.to_radians()) * -Vec3::Z
 }
 
-/// The best of `found` (yaw, score, iou, translation); among poses within `tie` of it, one whose back faces
+/// The best of `found` (yaw, score, iou, translation, scale); among poses within `tie` of it, one whose back faces
 /// a wall it stands against (the model's half depth `reach` from its centre), if any; else, among them, the one
 /// whose front (local +z) faces the camera at `eye` most (furniture is photographed from the front: a cabinet
 /// turned round differs by its handles, a few pixels).
+/// A pose the finalists' search found: (yaw degrees, score, IoU, translation, scale).
+pub(super) type FoundPose = (f32, f32, f32, Vec3, f32);
+
 pub(super) fn back_to_the_wall(
-    found: &[(f32, f32, f32, Vec3)],
+    found: &[FoundPose],
     walls: &[Wall],
     reach: f32,
     tie: f32,
     eye: Vec3,
-) -> Option<(f32, f32, f32, Vec3)> {
+) -> Option<FoundPose> {
     let best = *found.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
-    let facing = |f: &(f32, f32, f32, Vec3)| wall_behind(walls, f.3, reach).map_or(0.0, |w| back(f.0).dot(-w.normal));
+    let facing = |f: &FoundPose| wall_behind(walls, f.3, reach).map_or(0.0, |w| back(f.0).dot(-w.normal));
     let ties = || found.iter().filter(|f| f.1 >= best.1 - tie);
     let backed =
         ties().filter(|f| facing(f) > 0.7).max_by(|a, b| facing(a).total_cmp(&facing(b)).then(a.1.total_cmp(&b.1)));
-    let to_eye = |f: &(f32, f32, f32, Vec3)| (-back(f.0)).dot((eye - f.3).normalize_or_zero());
+    let to_eye = |f: &FoundPose| (-back(f.0)).dot((eye - f.3).normalize_or_zero());
     let fronted = ties().max_by(|a, b| to_eye(a).total_cmp(&to_eye(b)).then(a.1.total_cmp(&b.1)));
     Some(*backed.or(fronted).unwrap_or(&best))
 }
@@ -181,9 +184,9 @@ mod tests {
         let eye = Vec3::new(0.0, 1.5, 3.0);
         let at = Vec3::new(0.0, 0.0, 0.0);
         // Yaw 0: local +z (the front) points at +z, towards the eye; yaw 180 turns the back to it.
-        let found = [(180.0, 0.800, 0.9, at), (0.0, 0.795, 0.9, at)];
+        let found = [(180.0, 0.800, 0.9, at, 1.0), (0.0, 0.795, 0.9, at, 1.0)];
         assert_eq!(back_to_the_wall(&found, &[], 0.3, 0.02, eye).unwrap().0, 0.0);
-        let far = [(180.0, 0.800, 0.9, at), (0.0, 0.700, 0.8, at)];
+        let far = [(180.0, 0.800, 0.9, at, 1.0), (0.0, 0.700, 0.8, at, 1.0)];
         assert_eq!(back_to_the_wall(&far, &[], 0.3, 0.02, eye).unwrap().0, 180.0);
     }
 

@@ -211,7 +211,7 @@ impl PoseSearch<'_> {
         mut yaw: f32,
         mut step: f32,
         mut yaw_step: f32,
-    ) -> Option<(f32, f32, f32, Vec3, f32)> {
+    ) -> Option<super::object_support::FoundPose> {
         let (mut best, mut iou) = self.eval(renderer, pose)?;
         let (mut t, mut scale) = (pose.translation, pose.scale.x);
         let mut scale_step = self.scale_step;
