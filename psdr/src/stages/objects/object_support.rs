@@ -118,13 +118,13 @@ pub(super) fn back(yaw_deg: f32) -> Vec3 {
     Quat::from_rotation_y(yaw_deg.to_radians()) * -Vec3::Z
 }
 
+/// A pose the finalists' search found: (yaw degrees, score, IoU, translation, scale).
+pub(super) type FoundPose = (f32, f32, f32, Vec3, f32);
+
 /// The best of `found` (yaw, score, iou, translation, scale); among poses within `tie` of it, one whose back faces
 /// a wall it stands against (the model's half depth `reach` from its centre), if any; else, among them, the one
 /// whose front (local +z) faces the camera at `eye` most (furniture is photographed from the front: a cabinet
 /// turned round differs by its handles, a few pixels).
-/// A pose the finalists' search found: (yaw degrees, score, IoU, translation, scale).
-pub(super) type FoundPose = (f32, f32, f32, Vec3, f32);
-
 pub(super) fn back_to_the_wall(
     found: &[FoundPose],
     walls: &[Wall],

@@ -229,6 +229,7 @@ impl PoseSearch<'_> {
                 ];
                 let mut moved = false;
                 for (dt, dyaw, ds) in moves {
+                    // A zero step (scale_step 0: the scale held) is no move.
                     if ds == 1.0 && dt == Vec3::ZERO && dyaw == 0.0 {
                         continue;
                     }
