@@ -5,9 +5,10 @@
 use super::layout::*;
 use super::shading::apply_uv_transform;
 use crate::error::{Error, Result};
-use crate::scene::{Color, Scalar, Scene};
+use crate::scene::{Color, MeshPart, Scalar, Scene};
 use glam::Vec3;
 use obvhs::{aabb::Aabb, cwbvh::builder::build_cwbvh, cwbvh::CwBvh, BvhBuildParams};
+use rayon::prelude::*;
 use std::time::Duration;
 
 #[derive(Clone, Debug, Default)]
@@ -24,6 +25,8 @@ pub struct SceneData {
     /// Host only: for each triangle, its index in scene order (objects, parts, faces), before the BVH reordering.
     pub triangle_source: Vec<u32>,
     pub object_count: u32,
+    /// Emitters of the scene (the buffer holds one dummy when there are none).
+    pub emitter_count: u32,
     /// Total emitted power proxy (sum of area x luminance) — zero means the scene is dark.
     pub light_weight: f32,
 }
@@ -70,45 +73,24 @@ impl SceneData {
         if d.texels.is_empty() {
             d.texels.push(0.0); // Vulkan cannot bind an empty buffer.
         }
-        // Triangles in scene order; the BVH permutation is applied below.
-        let (mut tris, mut shading, mut light_weight_of) = (Vec::new(), Vec::new(), Vec::new());
+        // Triangles in scene order; the BVH permutation is applied below. Each part is flattened on its own, in
+        // parallel (a serial build of 150 000 triangles kept one core waiting on the other), then joined in order.
+        let mut emitter_of = vec![None; scene.objects.len()];
         for (oi, o) in scene.objects.iter().enumerate() {
-            let emitter = o.emitter.map(|e| {
+            if let Some(e) = o.emitter {
                 d.emitters.push(EmitterGpu { radiance: e.radiance.to_array(), two_sided: e.two_sided as u32 });
-                (d.emitters.len() as u32 - 1, luminance(e.radiance) * if e.two_sided { 2.0 } else { 1.0 })
-            });
-            let m = o.pose.matrix();
-            let nm = o.pose.normal_matrix();
-            let flip = o.pose.is_mirroring();
-            for part in &o.parts {
-                let p: Vec<Vec3> = part.positions.iter().map(|&v| m.transform_point3(v)).collect();
-                let n: Option<Vec<Vec3>> =
-                    part.normals.as_ref().map(|ns| ns.iter().map(|&v| (nm * v).normalize_or_zero()).collect());
-                for t in &part.indices {
-                    let [a, b, c] = if flip { [t[0], t[2], t[1]] } else { *t }.map(|i| i as usize);
-                    let (v0, e1, e2) = (p[a], p[b] - p[a], p[c] - p[a]);
-                    tris.push(TriangleGeom {
-                        v0: v0.to_array(),
-                        material: part.material as u32,
-                        e1: e1.to_array(),
-                        object: oi as u32,
-                        e2: e2.to_array(),
-                        light: NONE,
-                    });
-                    let mut s = TriangleShading { emitter: emitter.map_or(NONE, |e| e.0), ..Default::default() };
-                    if let Some(n) = &n {
-                        s.flags |= SHADING_HAS_NORMALS;
-                        (s.n0, s.n1, s.n2) = (n[a].to_array(), n[b].to_array(), n[c].to_array());
-                    }
-                    if let Some(uv) = &part.uvs {
-                        s.flags |= SHADING_HAS_UVS;
-                        (s.uv0, s.uv1, s.uv2) = (uv[a].to_array(), uv[b].to_array(), uv[c].to_array());
-                    }
-                    shading.push(s);
-                    let area = 0.5 * e1.cross(e2).length();
-                    light_weight_of.push(emitter.map_or(0.0, |e| e.1 * area));
-                }
+                emitter_of[oi] = Some(d.emitters.len() as u32 - 1);
             }
+        }
+        let parts: Vec<(usize, &MeshPart)> =
+            scene.objects.iter().enumerate().flat_map(|(oi, o)| o.parts.iter().map(move |p| (oi, p))).collect();
+        let flat: Vec<(Vec<TriangleGeom>, Vec<TriangleShading>)> =
+            parts.par_iter().map(|&(oi, part)| flatten_part(scene, oi, part, emitter_of[oi])).collect();
+        let count: usize = flat.iter().map(|f| f.0.len()).sum();
+        let (mut tris, mut shading) = (Vec::with_capacity(count), Vec::with_capacity(count));
+        for (t, sh) in flat {
+            tris.extend(t);
+            shading.extend(sh);
         }
         if !tris.is_empty() {
             let (nodes, order) = match previous.filter(|p| p.has_triangles_at(&tris)) {
@@ -127,39 +109,17 @@ impl SceneData {
             // Reorder triangles so leaves index them directly (no indirection in the kernels). Without spatial
             // splits every triangle sits in exactly one leaf: the order is a permutation.
             debug_assert_eq!(order.len(), tris.len());
-            d.triangles = order.iter().map(|&i| tris[i as usize]).collect();
-            d.shading = order.iter().map(|&i| shading[i as usize]).collect();
+            d.triangles = order.par_iter().map(|&i| tris[i as usize]).collect();
+            d.shading = order.par_iter().map(|&i| shading[i as usize]).collect();
             d.triangle_source = order;
             d.nodes = nodes;
         }
-        for (tri, sh) in d.triangles.iter().zip(d.shading.iter_mut()) {
-            triangle_frame(tri, sh, &d.materials[tri.material as usize]);
-        }
-        // Light distribution: emitting triangles chosen proportionally to area x luminance, listed in scene
-        // order so that the BVH build (leaf sizes, build quality) never changes which light a sample picks.
-        let total: f64 = light_weight_of.iter().map(|&w| w as f64).sum();
-        d.light_weight = total as f32;
-        if total > 0.0 {
-            let mut bvh_position = vec![0u32; d.triangle_source.len()];
-            for (at, &src) in d.triangle_source.iter().enumerate() {
-                bvh_position[src as usize] = at as u32;
-            }
-            let mut acc = 0.0f64;
-            for (src, &w) in light_weight_of.iter().enumerate() {
-                let ti = bvh_position[src] as usize;
-                if w > 0.0 {
-                    acc += w as f64;
-                    d.triangles[ti].light = d.lights.len() as u32;
-                    d.lights.push(LightGpu {
-                        triangle: ti as u32,
-                        emitter: d.shading[ti].emitter,
-                        cdf: (acc / total) as f32,
-                        pmf: (w as f64 / total) as f32,
-                    });
-                }
-            }
-            d.lights.last_mut().unwrap().cdf = 1.0;
-        }
+        let materials = &d.materials;
+        d.triangles.par_iter().zip(d.shading.par_iter_mut()).for_each(|(tri, sh)| {
+            triangle_frame(tri, sh, &materials[tri.material as usize]);
+        });
+        d.emitter_count = d.emitters.len() as u32;
+        d.distribute_light();
         // Never hand an empty buffer to Vulkan.
         if d.nodes.is_empty() {
             // A root with eight empty slots: traversal works unchanged and never reports a hit.
@@ -182,10 +142,69 @@ impl SceneData {
         if d.emitters.is_empty() {
             d.emitters.push(EmitterGpu::default());
         }
-        if d.lights.is_empty() {
-            d.lights.push(LightGpu { triangle: NONE, emitter: NONE, cdf: 1.0, pmf: 0.0 });
-        }
         Ok(d)
+    }
+
+    /// Sets every emitter's radiance (`radiance[e]` for the e-th object with an emitter, in scene order) and
+    /// redoes what depends on it, the light distribution, keeping the triangles, BVH and shading: the result
+    /// equals `build` of the scene with those radiances, at a small part of its cost. The light fits render
+    /// one geometry once per candidate light, each lit alone; flattening 150 000 triangles for each of those
+    /// renders kept a core waiting on the other (about a quarter of the ceiling search on real rooms).
+    pub fn set_emitter_radiances(&mut self, radiance: &[Vec3]) -> Result<()> {
+        if radiance.len() != self.emitter_count as usize {
+            return Err(Error::Invalid(format!(
+                "scene data: {} emitter radiances given for {} emitters",
+                radiance.len(),
+                self.emitter_count
+            )));
+        }
+        for (e, r) in self.emitters.iter_mut().zip(radiance) {
+            e.radiance = r.to_array();
+        }
+        self.distribute_light();
+        Ok(())
+    }
+
+    /// The light-selection distribution from the emitters as they are: each emitting triangle chosen in
+    /// proportion to its area x luminance (twice that for a two-sided emitter; dark ones not at all), listed in
+    /// scene order so that the BVH build (leaf sizes, build quality) never changes which light a sample picks,
+    /// and each triangle's `light` pointing into it.
+    fn distribute_light(&mut self) {
+        // (scene order, BVH position, weight) of every emitting triangle.
+        let mut emitting: Vec<(u32, usize, f32)> = (0..self.triangle_source.len())
+            .into_par_iter()
+            .filter(|&ti| self.shading[ti].emitter != NONE)
+            .map(|ti| {
+                let (t, em) = (&self.triangles[ti], &self.emitters[self.shading[ti].emitter as usize]);
+                let area = 0.5 * Vec3::from(t.e1).cross(Vec3::from(t.e2)).length();
+                let side = if em.two_sided != 0 { 2.0 } else { 1.0 };
+                (self.triangle_source[ti], ti, luminance(Vec3::from(em.radiance)) * side * area)
+            })
+            .collect();
+        emitting.sort_unstable_by_key(|e| e.0);
+        self.lights.clear();
+        for &(_, ti, _) in &emitting {
+            self.triangles[ti].light = NONE;
+        }
+        let total: f64 = emitting.iter().fold(0.0, |acc, e| acc + e.2 as f64);
+        self.light_weight = total as f32;
+        if total > 0.0 {
+            let mut acc = 0.0f64;
+            for &(_, ti, w) in emitting.iter().filter(|e| e.2 > 0.0) {
+                acc += w as f64;
+                self.triangles[ti].light = self.lights.len() as u32;
+                self.lights.push(LightGpu {
+                    triangle: ti as u32,
+                    emitter: self.shading[ti].emitter,
+                    cdf: (acc / total) as f32,
+                    pmf: (w as f64 / total) as f32,
+                });
+            }
+            self.lights.last_mut().unwrap().cdf = 1.0;
+        }
+        if self.lights.is_empty() {
+            self.lights.push(LightGpu { triangle: NONE, emitter: NONE, cdf: 1.0, pmf: 0.0 });
+        }
     }
 
     /// Number of real lights (the buffer holds one dummy when there are none).
@@ -256,6 +275,45 @@ fn material(m: &crate::scene::Material) -> MaterialGpu {
         uv_row0: [r0[0], r0[1], r0[2], 0.0],
         uv_row1: [r1[0], r1[1], r1[2], 0.0],
     }
+}
+
+/// One part of object `oi` in world space: its triangles (wound as the pose leaves them) and their shading data.
+fn flatten_part(
+    scene: &Scene,
+    oi: usize,
+    part: &MeshPart,
+    emitter: Option<u32>,
+) -> (Vec<TriangleGeom>, Vec<TriangleShading>) {
+    let pose = &scene.objects[oi].pose;
+    let (m, nm, flip) = (pose.matrix(), pose.normal_matrix(), pose.is_mirroring());
+    let p: Vec<Vec3> = part.positions.iter().map(|&v| m.transform_point3(v)).collect();
+    let n: Option<Vec<Vec3>> =
+        part.normals.as_ref().map(|ns| ns.iter().map(|&v| (nm * v).normalize_or_zero()).collect());
+    let mut tris = Vec::with_capacity(part.indices.len());
+    let mut shading = Vec::with_capacity(part.indices.len());
+    for t in &part.indices {
+        let [a, b, c] = if flip { [t[0], t[2], t[1]] } else { *t }.map(|i| i as usize);
+        let (v0, e1, e2) = (p[a], p[b] - p[a], p[c] - p[a]);
+        tris.push(TriangleGeom {
+            v0: v0.to_array(),
+            material: part.material as u32,
+            e1: e1.to_array(),
+            object: oi as u32,
+            e2: e2.to_array(),
+            light: NONE,
+        });
+        let mut s = TriangleShading { emitter: emitter.unwrap_or(NONE), ..Default::default() };
+        if let Some(n) = &n {
+            s.flags |= SHADING_HAS_NORMALS;
+            (s.n0, s.n1, s.n2) = (n[a].to_array(), n[b].to_array(), n[c].to_array());
+        }
+        if let Some(uv) = &part.uvs {
+            s.flags |= SHADING_HAS_UVS;
+            (s.uv0, s.uv1, s.uv2) = (uv[a].to_array(), uv[b].to_array(), uv[c].to_array());
+        }
+        shading.push(s);
+    }
+    (tris, shading)
 }
 
 /// The BVH over triangle bounds (degenerate triangles stay in: they can never be hit). Its leaves index
@@ -333,6 +391,35 @@ mod tests {
         assert!(a.materials == b.materials && a.textures == b.textures && a.texels == b.texels, "{what}: materials");
         assert!(a.emitters == b.emitters && a.lights == b.lights && a.camera == b.camera, "{what}: lights");
         assert_eq!(a.light_weight.to_bits(), b.light_weight.to_bits(), "{what}: light weight");
+    }
+
+    /// Emitter radiances set on built data give what building the scene with those radiances gives, field for
+    /// field: a light turned off, one turned on, a two-sided one, all dark; a wrong count is an error.
+    #[test]
+    fn set_emitter_radiances_equals_building_the_relit_scene() {
+        let mut scene = room();
+        let plain = scene.objects.iter().position(|o| o.emitter.is_none()).unwrap();
+        scene.objects[plain].emitter =
+            Some(crate::scene::Emitter { radiance: Vec3::new(1.0, 2.0, 3.0), two_sided: true });
+        let emitting: Vec<usize> = (0..scene.objects.len()).filter(|&i| scene.objects[i].emitter.is_some()).collect();
+        assert_eq!(emitting.len(), 2);
+        let mut data = SceneData::build(&scene).unwrap();
+        assert_eq!(data.emitter_count, 2);
+        let cases = [
+            [Vec3::ZERO, Vec3::ONE],
+            [Vec3::new(2.0, 1.0, 0.5), Vec3::ZERO],
+            [Vec3::splat(3.0), Vec3::new(4.0, 0.0, 1.0)],
+            [Vec3::ZERO, Vec3::ZERO],
+        ];
+        for radiance in cases {
+            let mut relit = scene.clone();
+            for (&o, &r) in emitting.iter().zip(&radiance) {
+                relit.objects[o].emitter.as_mut().unwrap().radiance = r;
+            }
+            data.set_emitter_radiances(&radiance).unwrap();
+            assert_same(&data, &SceneData::build(&relit).unwrap(), &format!("radiances {radiance:?}"));
+        }
+        assert!(data.set_emitter_radiances(&[Vec3::ONE]).is_err());
     }
 
     /// `rebuild` equals a fresh `build` after appearance changes (which reuse the tree) and after geometry

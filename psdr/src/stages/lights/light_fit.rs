@@ -13,6 +13,7 @@ use crate::error::{Error, Result};
 use crate::render::SceneData;
 use crate::scene::Scene;
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// Knobs of the fit.
 #[derive(Clone, Debug)]
@@ -268,26 +269,52 @@ pub(crate) fn lit_by(scene: &Scene, light: usize, opts: &LightFitOptions) -> Sce
     s
 }
 
-/// The render of `scene` lit by object `light` alone at unit radiance, at the size the fit compares it (1/k of
-/// the camera's, k = `downsample`): rendered at that size where k divides the camera's sides (`spp` per small
-/// pixel), else at the camera's size with spp/k^2 per pixel and box-downsampled, the same samples per block (a
-/// full-size render at `spp` would cost k^2 times as much for the same comparison).
+/// The renders of `scene` lit by each of objects `lights` alone at unit radiance, at the size the fit compares
+/// them (1/k of the camera's, k = `downsample`): rendered at that size where k divides the camera's sides (`spp`
+/// per small pixel), else at the camera's size with spp/k^2 per pixel and box-downsampled, the same samples per
+/// block (a full-size render at `spp` would cost k^2 times as much for the same comparison). The geometry is
+/// flattened once and only the emitters' radiances change between lights (`SceneData::set_emitter_radiances`;
+/// the same data as building each lit scene). `each` is called before each render.
+pub(crate) fn unit_renders(
+    backend: &mut dyn Backend,
+    scene: &Scene,
+    lights: &[usize],
+    opts: &LightFitOptions,
+    mut each: impl FnMut(),
+) -> Result<Vec<Vec<f32>>> {
+    let Some(&first) = lights.first() else { return Ok(vec![]) };
+    let mut s = lit_by(scene, first, opts);
+    let k = opts.downsample.max(1);
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let at_small_size = w % k == 0 && h % k == 0;
+    if at_small_size {
+        (s.camera.width, s.camera.height) = ((w / k) as u32, (h / k) as u32);
+    } else {
+        s.settings.spp = opts.spp.div_ceil((k * k) as u32).max(1);
+    }
+    let mut data = SceneData::build(&s)?;
+    let emitting: Vec<usize> = (0..scene.objects.len()).filter(|&i| scene.objects[i].emitter.is_some()).collect();
+    lights
+        .iter()
+        .map(|&light| {
+            each();
+            let radiance: Vec<Vec3> =
+                emitting.iter().map(|&i| if i == light { Vec3::ONE } else { Vec3::ZERO }).collect();
+            data.set_emitter_radiances(&radiance)?;
+            let f = backend.render(&data, &s.settings, &|_, _| {})?;
+            Ok(if at_small_size { f.radiance } else { downsample(&f.radiance, w, h, k).0 })
+        })
+        .collect()
+}
+
+/// `unit_renders` of one light.
 pub(crate) fn unit_render(
     backend: &mut dyn Backend,
     scene: &Scene,
     light: usize,
     opts: &LightFitOptions,
 ) -> Result<Vec<f32>> {
-    let mut s = lit_by(scene, light, opts);
-    let k = opts.downsample.max(1);
-    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    if w % k == 0 && h % k == 0 {
-        (s.camera.width, s.camera.height) = ((w / k) as u32, (h / k) as u32);
-        return Ok(backend.render(&SceneData::build(&s)?, &s.settings, &|_, _| {})?.radiance);
-    }
-    s.settings.spp = opts.spp.div_ceil((k * k) as u32).max(1);
-    let f = backend.render(&SceneData::build(&s)?, &s.settings, &|_, _| {})?;
-    Ok(downsample(&f.radiance, w, h, k).0)
+    Ok(unit_renders(backend, scene, &[light], opts, || {})?.remove(0))
 }
 
 /// Per channel, the non-negative least-squares radiances of the `active` basis images for `target` (its
@@ -455,13 +482,7 @@ pub fn fit_lights(
         .white_lights(opts.white)
         .tint_prior(opts.tint_prior);
     let progress = crate::progress::activity(format!("unit renders of {} lights", index.len()), Some(index.len()));
-    let basis: Vec<Vec<f32>> = index
-        .iter()
-        .map(|&li| {
-            progress.advance();
-            unit_render(backend, scene, li, opts)
-        })
-        .collect::<Result<_>>()?;
+    let basis = unit_renders(backend, scene, &index, opts, || progress.advance())?;
     drop(progress);
     let fit = |active: &[usize]| nnls_fit(&basis, &target, active);
     let norm = target.norm();
@@ -471,16 +492,19 @@ pub fn fit_lights(
     let all = rel(err);
     // Backward elimination: drop the light whose removal costs least, while that cost stays under the threshold.
     // A light the photo shows (a window, a ceiling light in view) is there whatever the fit says: it stays.
+    // The trials are fitted in parallel and the least kept in their order (the first of equals, as before).
     while active.len() > 1 {
-        let trial = active
-            .iter()
-            .filter(|&&drop| !super::is_visible_light(&lights[drop]))
+        let droppable: Vec<usize> =
+            active.iter().copied().filter(|&drop| !super::is_visible_light(&lights[drop])).collect();
+        let trials: Vec<(usize, Vec<[f32; 3]>, f64)> = droppable
+            .par_iter()
             .map(|&drop| {
                 let rest: Vec<usize> = active.iter().copied().filter(|&i| i != drop).collect();
                 let (r, e) = fit(&rest);
                 (drop, r, e)
             })
-            .min_by(|a, b| a.2.total_cmp(&b.2));
+            .collect();
+        let trial = trials.into_iter().min_by(|a, b| a.2.total_cmp(&b.2));
         let Some((drop, r, e)) = trial else { break };
         if rel(e) - rel(err) >= opts.removal_threshold {
             break;

@@ -14,7 +14,7 @@
 //! and no others (`light_view`).
 
 use super::ceiling_panels::light_pixels;
-use super::light_fit::{nnls_fit, unit_render, FitTarget, LightFitOptions};
+use super::light_fit::{nnls_fit, unit_render, unit_renders, FitTarget, LightFitOptions};
 use super::light_view::{keeps_view, local_bounds, pixels_covered};
 use super::{is_edge_ceiling_light, is_visible_light};
 use crate::backend::Backend;
@@ -146,9 +146,9 @@ pub fn refine_light_placement(
         .tint_prior(ro.tint_prior);
     let norm = target.norm();
     let rel = |err: f64| (err / norm).sqrt() as f32;
-    let mut render = |scene: &Scene, li: usize| unit_render(backend, scene, li, ro);
     let progress = crate::progress::activity(format!("placing {} lights, step {:.2} m", lights.len(), opts.step), None);
-    let basis: Vec<Vec<f32>> = lights.iter().map(|&i| render(scene, i)).collect::<Result<_>>()?;
+    let basis = unit_renders(backend, scene, &lights, ro, || {})?;
+    let mut render = |scene: &Scene, li: usize| unit_render(backend, scene, li, ro);
     let active: Vec<usize> = (0..lights.len()).collect();
     let (rad, err) = nnls_fit(&basis, &target, &active);
     let mut fit = Fit { basis, rad, err, active };
