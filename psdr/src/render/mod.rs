@@ -3,6 +3,7 @@
 pub mod bsdf;
 pub mod bvh;
 mod bvh_cache;
+mod bvh_refit;
 pub mod camera;
 pub mod cpu;
 pub mod frame;
