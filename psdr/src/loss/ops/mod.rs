@@ -12,4 +12,4 @@ pub use normalize::{normalize, normalize_in};
 pub use pointwise::{abs, add, div, mul, neg, scale, sqr, sqrt, sub};
 pub use reduce::{charbonnier, l1, l2, masked_mean, mean, sum, weighted_mean};
 pub use resample::{blur, crop, downsample, gaussian_pyramid};
-pub use texture_descriptor::{texture_descriptor, texture_loss, MIN_CROP};
+pub use texture_descriptor::{texture_descriptor, texture_loss, texture_loss_to, MIN_CROP};

@@ -85,26 +85,27 @@ fn box_down_transpose(g: &[f32], w: usize, h: usize, c: usize, k: usize, into: &
     }
 }
 
-/// Feature maps of one scale: ReLU(filter ⊛ x) at every 'valid' position, [position][filter].
+/// Feature maps of one scale: ReLU(filter ⊛ x) at every 'valid' position, [position][filter]. Each input value
+/// is multiplied into all filters at once (the bank transposed, `by_tap`), so the sixteen sums vectorize; each
+/// sum still adds its taps in the same order, so the maps are the ones a filter-by-filter loop gives.
 fn features(x: &[f32], w: usize, h: usize, c: usize, bank: &[Vec<f32>]) -> (Vec<[f32; FILTERS]>, usize, usize) {
     let (fw, fh) = (w + 1 - SIZE, h + 1 - SIZE);
+    let by_tap: Vec<[f32; FILTERS]> = (0..SIZE * SIZE * c).map(|t| std::array::from_fn(|k| bank[k][t])).collect();
     let f: Vec<[f32; FILTERS]> = (0..fw * fh)
         .into_par_iter()
         .map(|p| {
             let (px, py) = (p % fw, p / fw);
             let mut out = [0.0f32; FILTERS];
-            for (k, filt) in bank.iter().enumerate() {
-                let mut s = 0.0f32;
-                for dy in 0..SIZE {
-                    let row = ((py + dy) * w + px) * c;
-                    let fr = dy * SIZE * c;
-                    for j in 0..SIZE * c {
-                        s += filt[fr + j] * x[row + j];
+            for dy in 0..SIZE {
+                let row = ((py + dy) * w + px) * c;
+                let taps = &by_tap[dy * SIZE * c..(dy + 1) * SIZE * c];
+                for (tap, &v) in taps.iter().zip(&x[row..row + SIZE * c]) {
+                    for k in 0..FILTERS {
+                        out[k] += tap[k] * v;
                     }
                 }
-                out[k] = s.max(0.0);
             }
-            out
+            out.map(|s| s.max(0.0))
         })
         .collect();
     (f, fw, fh)
@@ -187,10 +188,16 @@ pub fn texture_descriptor(a: &Tensor) -> Result<Tensor> {
 /// ‖desc(a) − desc(b)‖² / ‖desc(b)‖² (both as means over entries): a scale-free texture distance between two
 /// crops of any sizes.
 pub fn texture_loss(a: &Tensor, b: &Tensor) -> Result<Tensor> {
-    let (da, db) = (texture_descriptor(a)?, texture_descriptor(b)?);
-    let denom = mean(&sqr(&db)?)?;
+    texture_loss_to(a, &texture_descriptor(b)?)
+}
+
+/// `texture_loss(a, b)` given b's descriptor (`texture_descriptor(b)`): the material search and the graph fit
+/// compare a thousand views with one crop, whose descriptor was half of each comparison's work.
+pub fn texture_loss_to(a: &Tensor, b_descriptor: &Tensor) -> Result<Tensor> {
+    let da = texture_descriptor(a)?;
+    let denom = mean(&sqr(b_descriptor)?)?;
     if denom.item().unwrap_or(0.0) <= 0.0 {
         return Err(Error::Invalid("texture_loss: the reference crop has no texture energy (all black?)".into()));
     }
-    div(&l2(&da, &db)?, &denom)
+    div(&l2(&da, b_descriptor)?, &denom)
 }

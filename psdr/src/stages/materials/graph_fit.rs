@@ -11,7 +11,7 @@
 
 use super::texture_view::{texture_view_backward, texture_view_mips, Mips, UvGrid};
 use crate::error::{Error, Result};
-use crate::loss::{texture_loss, Image, Tape, Tensor};
+use crate::loss::{texture_descriptor, texture_loss_to, Image, Tape, Tensor};
 use crate::optim::{AdamConfig, AdamState};
 use crate::scene::Procedural;
 use glam::Vec3;
@@ -57,7 +57,7 @@ pub fn fit_graph_to_crop(
     }
     let graph = p.load_graph()?;
     let ranges = graph.float_ranges();
-    let crop_t = Tensor::constant(crop.clone());
+    let crop_descriptor = texture_descriptor(&Tensor::constant(crop.clone()))?;
     let crop_mean = channel_means(crop);
     let scale_before = *scale;
     // The scale first, by search at the start's parameters: the loss is far from convex in it (a periodic
@@ -65,7 +65,7 @@ pub fn fit_graph_to_crop(
     let start = Mips::new(p.size as usize, &p.bake()?.texels);
     let scale_loss = |s: f32| -> Result<f32> {
         let view = texture_view_mips(&start, s, rotation_deg, grid);
-        Ok(descriptor_and_colour(&view, &crop_t, crop_mean, opts.colour_weight, false)?.0)
+        Ok(descriptor_and_colour(&view, &crop_descriptor, crop_mean, opts.colour_weight, false)?.0)
     };
     let mut best_search = (scale_loss(*scale)?, *scale);
     let first_loss_at_start = best_search.0;
@@ -106,7 +106,7 @@ pub fn fit_graph_to_crop(
         let mips = Mips::new(size, &texels);
         let s = scale_of(&u);
         let view = texture_view_mips(&mips, s, rotation_deg, grid);
-        let (loss, d_view) = descriptor_and_colour(&view, &crop_t, crop_mean, opts.colour_weight, true)?;
+        let (loss, d_view) = descriptor_and_colour(&view, &crop_descriptor, crop_mean, opts.colour_weight, true)?;
         // The library's parameters as a prior: a departure must buy its cost in the fit.
         let prior: f64 =
             (0..n).map(|k| (u[k].clamp(0.0, 1.0) - u0[k]).powi(2)).sum::<f64>() * opts.prior_weight / n as f64;
@@ -148,14 +148,14 @@ pub fn fit_graph_to_crop(
 /// distance of the mean colours.
 fn descriptor_and_colour(
     view: &Image,
-    crop: &Tensor,
+    crop_descriptor: &Tensor,
     crop_mean: [f32; 3],
     colour_weight: f32,
     with_gradient: bool,
 ) -> Result<(f32, Vec<f64>)> {
     let tape = Tape::new();
     let v = tape.input(view.clone());
-    let loss_t = texture_loss(&v, crop)?;
+    let loss_t = texture_loss_to(&v, crop_descriptor)?;
     let mut d_view: Vec<f64> = match with_gradient {
         true => match tape.backward(&loss_t)?.of(&v) {
             Some(g) => g.data.iter().map(|&x| x as f64).collect(),

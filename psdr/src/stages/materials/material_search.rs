@@ -9,9 +9,10 @@
 
 use super::texture_view::{texture_view, UvGrid};
 use crate::error::{Error, Result};
-use crate::loss::{texture_loss, Image, Tensor};
+use crate::loss::{texture_descriptor, texture_loss_to, Image, Tensor};
 use crate::vision::{cosine, embed, OnnxModel};
 use psdr_materials::{library, Evaluator};
+use rayon::prelude::*;
 
 /// A library material's albedo texture at default parameters.
 #[derive(Clone, Debug)]
@@ -113,7 +114,12 @@ pub fn contrast(img: &Image) -> f32 {
 /// colour (its filters are zero-mean over all channels together, not per channel), which would dominate its
 /// energy, so the view is first brought to the crop's mean colour (per-channel gain, as it is applied) and
 /// contrast; colour, contrast and fineness are then judged apart, each as a relative or log-ratio error.
-fn distance(crop: &Tensor, crop_stats: &CropStats, mut view: Image, colour_weight: f32) -> Result<(f32, f32)> {
+fn distance(
+    crop_descriptor: &Tensor,
+    crop_stats: &CropStats,
+    mut view: Image,
+    colour_weight: f32,
+) -> Result<(f32, f32)> {
     let m = mean(&view);
     let crop_mean = crop_stats.mean;
     let colour = colour_distance(m, crop_mean);
@@ -124,7 +130,7 @@ fn distance(crop: &Tensor, crop_stats: &CropStats, mut view: Image, colour_weigh
     for p in view.data.chunks_mut(3) {
         (0..3).for_each(|c| p[c] = crop_mean[c] + (p[c] - m[c]) * crop_mean[c] / m[c].max(1e-4) * k);
     }
-    let tex = texture_loss(&Tensor::constant(view), crop)?.item().unwrap_or(f32::INFINITY);
+    let tex = texture_loss_to(&Tensor::constant(view), crop_descriptor)?.item().unwrap_or(f32::INFINITY);
     Ok((tex + colour_weight * colour + scale + contrast_error, tex))
 }
 
@@ -196,31 +202,36 @@ pub fn search_materials_with(
         )));
     }
     let unit = 1.0 / grid.span() as f32;
-    let crop_t = Tensor::constant(crop.clone());
     let stats = CropStats { mean: mean(crop), fineness: fineness(crop), contrast: contrast(crop) };
-    let score = |tex: &LibraryTexture, scale: f32, rotation: f32| {
-        distance(&crop_t, &stats, view_at(tex, scale * unit, rotation, grid), colour_weight)
+    // The crop's descriptor once; as a tensor per task (tensors are not shared across threads).
+    let crop_descriptor = texture_descriptor(&Tensor::constant(crop.clone()))?.value().clone();
+    let score = |crop_d: &Tensor, tex: &LibraryTexture, scale: f32, rotation: f32| {
+        distance(crop_d, &stats, view_at(tex, scale * unit, rotation, grid), colour_weight)
     };
-    // First pass: scales a factor sqrt(2) apart, no rotation.
-    let mut first: Vec<MaterialMatch> = vec![];
-    for tex in library {
-        let mut best = MaterialMatch {
-            name: tex.name.clone(),
-            scale: 1.0,
-            rotation_deg: 0.0,
-            distance: f32::INFINITY,
-            texture_distance: f32::INFINITY,
-            embedding_similarity: None,
-        };
-        for k in 0..9 {
-            let scale = 0.5 * 2f32.powf(k as f32 / 2.0);
-            let (d, t) = score(tex, scale, 0.0)?;
-            if d < best.distance {
-                (best.scale, best.distance, best.texture_distance) = (scale, d, t);
+    // First pass: scales a factor sqrt(2) apart, no rotation. Materials are scored in parallel (each view is
+    // built on one thread; the crops are small, so a view's own descriptor keeps two cores half busy).
+    let mut first: Vec<MaterialMatch> = library
+        .par_iter()
+        .map(|tex| {
+            let crop_d = Tensor::constant(crop_descriptor.clone());
+            let mut best = MaterialMatch {
+                name: tex.name.clone(),
+                scale: 1.0,
+                rotation_deg: 0.0,
+                distance: f32::INFINITY,
+                texture_distance: f32::INFINITY,
+                embedding_similarity: None,
+            };
+            for k in 0..9 {
+                let scale = 0.5 * 2f32.powf(k as f32 / 2.0);
+                let (d, t) = score(&crop_d, tex, scale, 0.0)?;
+                if d < best.distance {
+                    (best.scale, best.distance, best.texture_distance) = (scale, d, t);
+                }
             }
-        }
-        first.push(best);
-    }
+            Ok(best)
+        })
+        .collect::<Result<_>>()?;
     let appearance = |m: &MaterialMatch, w: f32| m.embedding_similarity.map_or(0.0, |s| w * (1.0 - s));
     let weight = encoder.as_ref().map_or(0.0, |e| e.weight);
     if let Some(enc) = encoder {
@@ -235,15 +246,15 @@ pub fn search_materials_with(
     first.sort_by(|a, b| a.distance.total_cmp(&b.distance));
     // The leaders' transform search.
     let leaders = (2 * top_k).max(top_k + 2).min(first.len());
-    let mut out: Vec<MaterialMatch> = vec![];
-    for m in first.iter().take(leaders) {
+    let leader_search = |m: &MaterialMatch| -> Result<MaterialMatch> {
         let tex =
             library.iter().find(|t| t.name == m.name).ok_or_else(|| Error::Invalid("material vanished".into()))?;
+        let crop_d = Tensor::constant(crop_descriptor.clone());
         let mut best = m.clone();
         for k in 0..13 {
             let scale = 0.5 * 2f32.powf(k as f32 / 4.0);
             for rotation in [-45.0f32, 0.0, 45.0, 90.0] {
-                let (d, t) = score(tex, scale, rotation)?;
+                let (d, t) = score(&crop_d, tex, scale, rotation)?;
                 let d = d + appearance(m, weight);
                 if d < best.distance {
                     (best.scale, best.rotation_deg, best.distance, best.texture_distance) = (scale, rotation, d, t);
@@ -255,15 +266,16 @@ pub fn search_materials_with(
             let centre = best.scale;
             for k in [-2, -1, 1, 2] {
                 let scale = centre * 2f32.powf(k as f32 / step);
-                let (d, t) = score(tex, scale, best.rotation_deg)?;
+                let (d, t) = score(&crop_d, tex, scale, best.rotation_deg)?;
                 let d = d + appearance(m, weight);
                 if d < best.distance {
                     (best.scale, best.distance, best.texture_distance) = (scale, d, t);
                 }
             }
         }
-        out.push(best);
-    }
+        Ok(best)
+    };
+    let mut out: Vec<MaterialMatch> = first[..leaders].par_iter().map(leader_search).collect::<Result<_>>()?;
     out.sort_by(|a, b| a.distance.total_cmp(&b.distance));
     out.truncate(top_k);
     out.iter_mut().for_each(|m| m.scale *= unit);
