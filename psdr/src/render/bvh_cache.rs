@@ -5,7 +5,7 @@
 //! ceiling search on real-furniture rooms). A build whose triangles are bit for bit those of a cached one takes
 //! its tree and order instead; the build is deterministic, so the scene data is the same either way.
 //! A set that differs from a cached one in a few triangles (a light moved, a wall stretched) takes that one's
-//! tree refitted to it (`bvh_refit`): the same hits, no build.
+//! tree refitted to it (`bvh_refit`): the same hits up to exact ties, no build.
 
 use super::layout::{BvhNode, TriangleGeom};
 use std::sync::Mutex;
