@@ -8,6 +8,7 @@
 //! triangles that did not move it is the built tree, bit for bit (tested), so refitting never drifts.
 
 use super::layout::{BvhNode, TriangleGeom};
+use super::scene_data::triangle_bounds;
 use glam::Vec3;
 
 /// The child boxes' grid resolution (obvhs: 8-bit planes, 1/255 of the node's extent).
@@ -37,7 +38,7 @@ fn refit_node<'a>(nodes: &mut [BvhNode], i: usize, triangle: &impl Fn(usize) -> 
             refit_node(nodes, (node.child_base_idx + inner - 1) as usize, triangle)
         } else {
             let first = (node.primitive_base_idx + (meta & 0x1f) as u32) as usize;
-            (0..(meta >> 5).count_ones() as usize).map(|k| triangle_box(triangle(first + k))).reduce(union).unwrap()
+            (0..(meta >> 5).count_ones() as usize).map(|k| triangle_bounds(triangle(first + k))).reduce(union).unwrap()
         });
     }
     let Some((lo, hi)) = boxes.iter().flatten().copied().reduce(union) else {
@@ -58,13 +59,6 @@ fn refit_node<'a>(nodes: &mut [BvhNode], i: usize, triangle: &impl Fn(usize) -> 
     }
     nodes[i] = node;
     (lo, hi)
-}
-
-/// A triangle's bounds, as `scene_data::build_bvh` gives them to the builder.
-fn triangle_box(t: &TriangleGeom) -> (Vec3, Vec3) {
-    let v0 = Vec3::from(t.v0);
-    let (v1, v2) = (v0 + Vec3::from(t.e1), v0 + Vec3::from(t.e2));
-    (v0.min(v1).min(v2), v0.max(v1).max(v2))
 }
 
 fn union(a: (Vec3, Vec3), b: (Vec3, Vec3)) -> (Vec3, Vec3) {

@@ -322,9 +322,8 @@ pub fn build_bvh(tris: &[TriangleGeom]) -> CwBvh {
     let aabbs: Vec<Aabb> = tris
         .iter()
         .map(|t| {
-            let v0 = Vec3::from(t.v0);
-            let (v1, v2) = (v0 + Vec3::from(t.e1), v0 + Vec3::from(t.e2));
-            Aabb::new(v0.min(v1).min(v2).into(), v0.max(v1).max(v2).into())
+            let (lo, hi) = triangle_bounds(t);
+            Aabb::new(lo.into(), hi.into())
         })
         .collect();
     build_cwbvh(&aabbs, bvh_build_params(), &mut Duration::default())
@@ -343,6 +342,13 @@ fn triangle_frame(tri: &TriangleGeom, sh: &mut TriangleShading, mat: &MaterialGp
         sh.dpdu = ((e1 * duv2.y - e2 * duv1.y) * (1.0 / det)).to_array();
         sh.dpdv = ((e2 * duv1.x - e1 * duv2.x) * (1.0 / det)).to_array();
     }
+}
+
+/// A triangle's bounds as the BVH sees them (the build's input, and what a refit requantizes from).
+pub(crate) fn triangle_bounds(t: &TriangleGeom) -> (Vec3, Vec3) {
+    let v0 = Vec3::from(t.v0);
+    let (v1, v2) = (v0 + Vec3::from(t.e1), v0 + Vec3::from(t.e2));
+    (v0.min(v1).min(v2), v0.max(v1).max(v2))
 }
 
 /// obvhs's medium build: PLOC + reinsertion for the binary tree, converted to the 8-wide compressed tree with
