@@ -78,6 +78,8 @@ struct TextureGpu {
 struct EmitterGpu {
     vec3 radiance;
     uint two_sided;
+    vec3 sky_gradient;
+    float _pad0;
 };
 
 struct LightGpu {

@@ -44,7 +44,7 @@ void main() {
     TextureGpu x = textures[1];
     put(x.offset); put(x.width); put(x.height); put(x.channels);
     EmitterGpu e = emitters[1];
-    put(e.radiance); put(e.two_sided);
+    put(e.radiance); put(e.two_sided); put(e.sky_gradient); put(e._pad0);
     LightGpu l = lights[1];
     put(l.triangle); put(l.emitter); put(l.cdf); put(l.pmf);
     CameraGpu c = camera[1];

@@ -23,6 +23,7 @@ struct LightSample {
     vec3 p;
     vec3 n;
     vec3 radiance;
+    vec3 sky_gradient;
     bool two_sided;
     float pdf_area;
     uint emitter;
@@ -40,18 +41,26 @@ LightSample sample_light(uint count, float u_select, float u1, float u2) {
     vec3 c = cross3(e1, e2);
     float area = 0.5 * length3(c);
     EmitterGpu em = emitters[light.emitter];
-    return LightSample(tri.v0 + e1 * b1 + e2 * b2, normalize3(c), em.radiance, em.two_sided != 0u,
-                       light.pmf / area, light.emitter);
+    return LightSample(tri.v0 + e1 * b1 + e2 * b2, normalize3(c), em.radiance, em.sky_gradient,
+                       em.two_sided != 0u, light.pmf / area, light.emitter);
 }
 
-vec3 emitted_radiance(uint ti, bool front) {
+vec3 sky_shape(vec3 g, vec3 dir) {
+    return vec3(1.0) + g * dir.y;
+}
+
+vec3 emitter_shape(uint e, vec3 dir) {
+    return sky_shape(emitters[e].sky_gradient, dir);
+}
+
+vec3 emitted_radiance(uint ti, bool front, vec3 dir) {
     uint e = shading[ti].emitter;
     if (e == NONE) {
         return vec3(0.0);
     }
     EmitterGpu em = emitters[e];
     if (em.two_sided != 0u || front) {
-        return em.radiance;
+        return em.radiance * sky_shape(em.sky_gradient, dir);
     } else {
         return vec3(0.0);
     }

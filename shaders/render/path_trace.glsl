@@ -18,7 +18,7 @@
 #ifndef OBSERVE_HIT
 #define OBSERVE_START(origin, dir)
 #define OBSERVE_HIT(hit, sp, beta)
-#define OBSERVE_EMISSION(emitter, le, mis)
+#define OBSERVE_EMISSION(emitter, le, shape, mis)
 #define OBSERVE_SCATTER(wi)
 #define OBSERVE_NEE(u_select, wl, emitter, radiance, w_over_pdf, f, wo)
 #define OBSERVE_CONTINUATION(dir, pdf, q, weight, wo)
@@ -65,19 +65,20 @@ PathSample trace_from(FrameParams fp, Sampler s, vec3 origin, vec3 dir) {
             out_.object = sp.object;
         }
         // Emission reached by the previous bounce (or seen directly), MIS-weighted against NEE.
-        vec3 le = emitted_radiance(hit.triangle, sp.front);
+        vec3 le = emitted_radiance(hit.triangle, sp.front, dir);
         if (le != vec3(0.0)) {
             uint emitter = shading[hit.triangle].emitter;
+            vec3 shape = emitter_shape(emitter, dir);
             if (depth == 0u) {
                 out_.radiance += beta * le;
                 out_.first_emission = beta * le;
-                OBSERVE_EMISSION(emitter, le, 1.0);
+                OBSERVE_EMISSION(emitter, le, shape, 1.0);
             } else {
                 float cos_l = abs(dot3(sp.ng, -dir));
                 float light_pdf = light_pdf_area(hit.triangle) * hit.t * hit.t / cos_l;
                 float mis = mis_power(prev_bsdf_pdf, light_pdf);
                 out_.radiance += beta * le * mis;
-                OBSERVE_EMISSION(emitter, le, mis);
+                OBSERVE_EMISSION(emitter, le, shape, mis);
             }
         }
         if (depth + 1u >= fp.max_depth) {
@@ -106,8 +107,9 @@ PathSample trace_from(FrameParams fp, Sampler s, vec3 origin, vec3 dir) {
                         float light_pdf = ls.pdf_area * dist2 / cos_l;
                         float w = mis_power(light_pdf, pdf);
                         float w_over_pdf = w / light_pdf;
-                        out_.radiance += beta * f * ls.radiance * w_over_pdf;
-                        OBSERVE_NEE(u_select_lobe.x, wl, ls.emitter, ls.radiance, w_over_pdf, f, wo);
+                        vec3 le = ls.radiance * sky_shape(ls.sky_gradient, wl);
+                        out_.radiance += beta * f * le * w_over_pdf;
+                        OBSERVE_NEE(u_select_lobe.x, wl, ls.emitter, le, w_over_pdf, f, wo);
                     }
                 }
             }

@@ -57,7 +57,7 @@ pub fn truth_room() -> (Scene, Vec<(u16, &'static str)>) {
         k.name = name.into();
         k.pose.translation = Vec3::new(x, spec.h - 0.01, z);
         k.pose.scale = Vec3::splat(0.5);
-        k.emitter = Some(Emitter { radiance: le, two_sided: false });
+        k.emitter = Some(Emitter::uniform(le, false));
         s.objects.push(k);
     }
     // Every bounce, as a photo records it (16 vertices: within 0.1 % of converged in a light room).

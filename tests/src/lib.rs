@@ -62,7 +62,7 @@ pub fn flat(mut part: MeshPart) -> MeshPart {
 
 /// One-sided emitter of radiance `le`.
 pub fn emitter(le: Vec3) -> Option<Emitter> {
-    Some(Emitter { radiance: le, two_sided: false })
+    Some(Emitter::uniform(le, false))
 }
 
 /// The shipped example room at `width` x `height` and `spp`.

@@ -794,7 +794,7 @@ pub fn build_scene(room: &RealRoom, w: u32, h: u32) -> psdr::Result<(Scene, Buil
             name,
             parts: vec![part],
             pose: Pose { translation: t, rotation, scale: Vec3::ONE },
-            emitter: Some(Emitter { radiance, two_sided: false }),
+            emitter: Some(Emitter::uniform(radiance, false)),
         }
     };
     for (k, (at, side, le)) in room.lights.iter().enumerate() {

@@ -112,7 +112,7 @@ pub fn room_scene(r: &RoomSpec, furniture: &[FurnitureBox], textured: bool, w: u
         classes.push(if i % 2 == 0 { "sofa" } else { "table" }.into());
     }
     let mut light = rect("light", 1.2, 1.2, Vec3::new(0.0, r.h - 0.01, 0.0), Vec3::new(90.0, 0.0, 0.0), 0);
-    light.emitter = Some(Emitter { radiance: Vec3::splat(10.0), two_sided: false });
+    light.emitter = Some(Emitter::uniform(Vec3::splat(10.0), false));
     objects.push(light);
     classes.push("lamp".into());
     let dir = Quat::from_euler(EulerRot::YXZ, r.yaw.to_radians(), r.pitch.to_radians(), 0.0) * -Vec3::Z;

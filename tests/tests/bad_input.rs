@@ -133,7 +133,7 @@ fn programmatic_scene() -> Scene {
 fn nan_parameters_set_in_code_are_caught_by_validation() {
     assert!(validate(&programmatic_scene()).is_ok());
     type Poke = fn(&mut Scene);
-    let cases: [(&str, Poke); 9] = [
+    let cases: [(&str, Poke); 11] = [
         ("materials[0] ('m').albedo", |s| s.materials[0].albedo = Color::Constant(Vec3::new(0.5, f32::NAN, 0.5))),
         ("materials[0] ('m').roughness", |s| s.materials[0].roughness = Scalar::Constant(f32::NAN)),
         ("materials[0] ('m').specular", |s| s.materials[0].specular = Scalar::Constant(f32::INFINITY)),
@@ -141,7 +141,16 @@ fn nan_parameters_set_in_code_are_caught_by_validation() {
         ("shapes[0] ('wall').transform", |s| s.objects[0].pose.translation.x = f32::NAN),
         ("shapes[0] ('wall').transform", |s| s.objects[0].pose.rotation = Quat::from_xyzw(f32::NAN, 0.0, 0.0, 1.0)),
         ("shapes[0] ('wall').emitter.radiance", |s| {
-            s.objects[0].emitter = Some(Emitter { radiance: Vec3::new(1.0, f32::NAN, 1.0), two_sided: false })
+            s.objects[0].emitter = Some(Emitter::uniform(Vec3::new(1.0, f32::NAN, 1.0), false))
+        }),
+        // |g| > 1 would emit negative radiance toward some directions.
+        ("shapes[0] ('wall').emitter.sky_gradient", |s| {
+            s.objects[0].emitter =
+                Some(Emitter { sky_gradient: Vec3::new(0.0, 1.5, 0.0), ..Emitter::uniform(Vec3::ONE, false) })
+        }),
+        ("shapes[0] ('wall').emitter.sky_gradient", |s| {
+            s.objects[0].emitter =
+                Some(Emitter { sky_gradient: Vec3::new(f32::NAN, 0.0, 0.0), ..Emitter::uniform(Vec3::ONE, false) })
         }),
         ("shapes[0] ('wall').parts[0] ('rectangle')", |s| s.objects[0].parts[0].positions[1].y = f32::NAN),
         ("camera.fov_y", |s| s.camera.fov_y_deg = f32::NAN),
@@ -191,7 +200,7 @@ fn degenerate_triangles_render_finite() {
         name: "dead_lamp".into(),
         parts: vec![mesh],
         pose: Default::default(),
-        emitter: Some(psdr::scene::Emitter { radiance: Vec3::splat(9.0), two_sided: false }),
+        emitter: Some(psdr::scene::Emitter::uniform(Vec3::splat(9.0), false)),
     });
     let raw = &mut scene.objects[0].parts[0];
     raw.positions.push(raw.positions[0]);

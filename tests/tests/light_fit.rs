@@ -43,7 +43,7 @@ fn two_of_six_lit() -> LitRoom {
             let mut l = light.clone();
             l.name = format!("light_{i}{j}");
             l.pose.translation = Vec3::new(*x, r.h - 0.01, *z);
-            l.emitter = Some(Emitter { radiance: Vec3::ONE, two_sided: false });
+            l.emitter = Some(Emitter::uniform(Vec3::ONE, false));
             names.push(l.name.clone());
             candidates.objects.push(l);
         }
@@ -54,7 +54,7 @@ fn two_of_six_lit() -> LitRoom {
     truth.objects.retain(|o| o.emitter.is_none() || truth_rad.iter().any(|(n, _)| *n == o.name));
     for o in truth.objects.iter_mut() {
         if let Some((_, rad)) = truth_rad.iter().find(|(n, _)| *n == o.name) {
-            o.emitter = Some(Emitter { radiance: *rad, two_sided: false });
+            o.emitter = Some(Emitter::uniform(*rad, false));
         }
     }
     truth.settings.spp = 256;
@@ -195,7 +195,7 @@ fn a_visible_window_becomes_a_light_on_its_wall() {
         name: "window".into(),
         parts: vec![pane],
         pose: Pose { translation: at, rotation: Quat::from_rotation_y(std::f32::consts::FRAC_PI_2), scale: Vec3::ONE },
-        emitter: Some(Emitter { radiance: Vec3::splat(5.0), two_sided: false }),
+        emitter: Some(Emitter::uniform(Vec3::splat(5.0), false)),
     });
     let f = render_cpu(&SceneData::build(&room).unwrap(), &room.settings, &|_, _| {});
     let o = room.object_index("window").unwrap() as u32;
@@ -275,7 +275,7 @@ fn misplaced_lights_move_back_to_where_the_photo_was_lit() {
         let o = start.objects.iter_mut().find(|o| o.name == name).unwrap();
         o.pose.translation += shift;
         o.pose.scale *= Vec3::new(size, size, 1.0);
-        o.emitter = Some(Emitter { radiance: Vec3::ONE, two_sided: false });
+        o.emitter = Some(Emitter::uniform(Vec3::ONE, false));
     }
     let t = std::time::Instant::now();
     let opts = LightPlacementOptions {
@@ -322,7 +322,7 @@ fn two_lights_straddling_one_are_merged_into_it() {
         let mut o = want.clone();
         o.name = name.into();
         o.pose.translation.z += dz;
-        o.emitter = Some(Emitter { radiance: Vec3::ONE, two_sided: false });
+        o.emitter = Some(Emitter::uniform(Vec3::ONE, false));
         start.objects.push(o);
     }
     let opts = LightPlacementOptions {

@@ -243,3 +243,25 @@ fn installed_models_survive_save_and_reload() {
     assert!(failures.is_empty(), "{} of {} models fail:\n{}", failures.len(), sample.len(), failures.join("\n"));
     eprintln!("{} installed models ({} with mixed groups) survive save and reload", sample.len(), mixed.len().min(30));
 }
+
+/// An emitter's sky gradient survives save and reload (`same_scene` compares it); a uniform emitter's file
+/// has no `sky_gradient` field, so files written before it existed read the same.
+#[test]
+fn an_emitters_sky_gradient_survives_save_and_reload() {
+    let dir = temp_dir("sky_gradient");
+    let mut scene = scene_of(vec![psdr::scene::rectangle_mesh(1.0, 0.6)]);
+    let g = Vec3::new(0.5, -0.25, 1.0);
+    scene.objects[0].emitter =
+        Some(psdr::scene::Emitter { sky_gradient: g, ..psdr::scene::Emitter::uniform(Vec3::ONE, false) });
+    let file = dir.join("window/scene.json");
+    save_scene(&scene, &file).unwrap();
+    let back = load_scene(&file).unwrap();
+    same_scene(&scene, &back).unwrap();
+    assert_eq!(back.objects[0].emitter.unwrap().sky_gradient, g);
+    scene.objects[0].emitter.as_mut().unwrap().sky_gradient = Vec3::ZERO;
+    let file = dir.join("uniform/scene.json");
+    save_scene(&scene, &file).unwrap();
+    assert!(!std::fs::read_to_string(&file).unwrap().contains("sky_gradient"));
+    same_scene(&scene, &load_scene(&file).unwrap()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+}

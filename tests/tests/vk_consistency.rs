@@ -36,7 +36,7 @@ fn room(width: u32, height: u32, spp: u32) -> Scene {
 }
 
 /// The room with a large smooth sphere (about 100k triangles, vertex normals and uvs), a second, two-sided
-/// light, and an EXR-textured material on it.
+/// light with a sky gradient, and an EXR-textured material on it.
 fn room_with_large_mesh_and_lights() -> Scene {
     let mut s = room(48, 36, 4);
     let dir = std::env::temp_dir().join(format!("psdr_vk_{}", std::process::id()));
@@ -65,7 +65,11 @@ fn room_with_large_mesh_and_lights() -> Scene {
     let mut lamp = psdr::scene::rectangle_mesh(0.3, 0.3);
     lamp.material = 0;
     let pose = Pose { translation: glam::Vec3::new(-1.2, 1.5, -1.0), ..Default::default() };
-    let emitter = Some(Emitter { radiance: glam::Vec3::new(3.0, 4.0, 6.0), two_sided: true });
+    // A window-like lamp on the wall, its radiance shaped by direction (the sky gradient, per channel).
+    let emitter = Some(Emitter {
+        sky_gradient: glam::Vec3::new(0.7, -0.4, 0.2),
+        ..Emitter::uniform(glam::Vec3::new(3.0, 4.0, 6.0), true)
+    });
     s.objects.push(Object { name: "wall_lamp".into(), parts: vec![lamp], pose, emitter });
     s.settings.max_depth = 4;
     s
@@ -202,7 +206,7 @@ fn light_scale_search_on_the_device_matches_the_cpu() {
         let mut lamp = s.objects.iter().find(|o| o.emitter.is_some()).unwrap().clone();
         lamp.name = "second_lamp".into();
         lamp.pose.translation = glam::Vec3::new(1.1, 1.9, 0.4);
-        lamp.emitter = Some(Emitter { radiance: glam::Vec3::new(6.0, 4.0, 2.5), two_sided: true });
+        lamp.emitter = Some(Emitter::uniform(glam::Vec3::new(6.0, 4.0, 2.5), true));
         s.objects.push(lamp);
         s
     };
@@ -418,7 +422,7 @@ fn shared_struct_layouts_round_trip_through_a_kernel() {
         uv_row1: [f(), f(), f(), f()],
     };
     let tex = TextureGpu { offset: 20, width: 21, height: 22, channels: 23 };
-    let em = EmitterGpu { radiance: [f(), f(), f()], two_sided: 24 };
+    let em = EmitterGpu { radiance: [f(), f(), f()], two_sided: 24, sky_gradient: [f(), f(), f()], _pad0: f() };
     let light = LightGpu { triangle: 25, emitter: 26, cdf: f(), pmf: f() };
     let cam = CameraGpu {
         origin: [f(), f(), f()],

@@ -100,6 +100,10 @@ fn deep_path_gradients_agree_with_the_cpu() {
     let Some(mut vk) = vk() else { return };
     let mut s = psdr_tests::example_room(32, 24, 4);
     s.settings.max_depth = 5;
+    // The light's radiance shaped by direction: its gradient carries the shape (emission and next-event).
+    for e in s.objects.iter_mut().filter_map(|o| o.emitter.as_mut()) {
+        e.sky_gradient = glam::Vec3::new(0.6, -0.3, 0.9);
+    }
     let adjoint = random_adjoint(32 * 24 * 3, 4);
     let (cpu, gpu, _) = both(&mut vk, &s, &adjoint);
     let scale = cpu.iter().map(|g| g.abs()).fold(0.0, f64::max);

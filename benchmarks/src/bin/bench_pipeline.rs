@@ -135,7 +135,7 @@ fn write_room(g: &Generated, db: &Path, dir: &Path, w: u32, h: u32) -> anyhow::R
             name,
             parts: vec![part],
             pose: Pose { translation: t, rotation: Quat::from_euler(EulerRot::ZYX, z, y, x), scale: Vec3::ONE },
-            emitter: Some(Emitter { radiance, two_sided: false }),
+            emitter: Some(Emitter::uniform(radiance, false)),
         }
     };
     for (k, (at, size, le)) in g.lights.iter().enumerate() {

@@ -46,7 +46,7 @@ pub fn render_thumbnail(entry: &ModelEntry, path: &Path, size: u32) -> Result<()
                     rotation: Quat::from_rotation_arc(Vec3::Z, (centre - light_at).normalize()),
                     scale: Vec3::ONE,
                 },
-                emitter: Some(Emitter { radiance: Vec3::splat(3.0), two_sided: false }),
+                emitter: Some(Emitter::uniform(Vec3::splat(3.0), false)),
             },
         ],
         source: None,

@@ -138,12 +138,13 @@ pub fn export_glb(scene: &Scene, path: &Path) -> Result<()> {
             }
             let idx: Vec<u32> = p.indices.iter().flatten().copied().collect();
             let mut material = p.material;
-            if let Some(e) = o.emitter {
-                // An emitter gets its own material: the surface's emission.
-                let strength = e.radiance.max_element().max(1e-6);
+            if let Some(radiance) = o.uniform_equivalent_radiance() {
+                // An emitter gets its own material: the surface's emission (glTF's has no directional
+                // profile: a sky gradient becomes the uniform radiance of the same power).
+                let strength = radiance.max_element().max(1e-6);
                 let mut m = materials.get(p.material).cloned().unwrap_or(json!({}));
                 m["name"] = json!(format!("{}_emission", o.name));
-                m["emissiveFactor"] = json!((e.radiance / strength).to_array());
+                m["emissiveFactor"] = json!((radiance / strength).to_array());
                 m["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": strength } });
                 materials.push(m);
                 material = materials.len() - 1;

@@ -151,6 +151,13 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path) -> Result<PathBuf> {
         if o.emitter.is_some_and(|e| e.two_sided) {
             warnings.push(format!("object '{}': two-sided emitter exported one-sided", o.name));
         }
+        if o.emitter.is_some_and(|e| e.sky_gradient != Vec3::ZERO) {
+            warnings.push(format!(
+                "object '{}': sky gradient exported as the uniform radiance of the same power (Mitsuba's area \
+                 emitter has no directional profile)",
+                o.name
+            ));
+        }
         for (pi, part) in o.parts.iter().enumerate() {
             let m = &scene.materials[part.material];
             let p: Vec<Vec3> = part.positions.iter().map(|&v| mat.transform_point3(v)).collect();
@@ -181,11 +188,11 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path) -> Result<PathBuf> {
                 writeln!(x, "    <boolean name=\"face_normals\" value=\"true\"/>").unwrap();
             }
             writeln!(x, "    <ref id=\"mat{}\"/>", part.material).unwrap();
-            if let Some(e) = o.emitter {
+            if let Some(radiance) = o.uniform_equivalent_radiance() {
                 writeln!(
                     x,
                     "    <emitter type=\"area\">\n      <rgb name=\"radiance\" value=\"{}\"/>\n    </emitter>",
-                    rgb(e.radiance)
+                    rgb(radiance)
                 )
                 .unwrap();
             }

@@ -85,12 +85,15 @@ pub struct TextureGpu {
     pub channels: u32,
 }
 
-/// An area emitter (16 bytes).
+/// An area emitter (32 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct EmitterGpu {
     pub radiance: [f32; 3],
     pub two_sided: u32,
+    /// `scene::Emitter::sky_gradient`.
+    pub sky_gradient: [f32; 3],
+    pub _pad0: f32,
 }
 
 /// One emitting triangle in the light-selection distribution (16 bytes).
@@ -146,7 +149,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<TriangleShading>(), 128);
         assert_eq!(std::mem::size_of::<MaterialGpu>(), 80);
         assert_eq!(std::mem::size_of::<TextureGpu>(), 16);
-        assert_eq!(std::mem::size_of::<EmitterGpu>(), 16);
+        assert_eq!(std::mem::size_of::<EmitterGpu>(), 32);
         assert_eq!(std::mem::size_of::<LightGpu>(), 16);
         assert_eq!(std::mem::size_of::<CameraGpu>(), 64);
         assert_eq!(std::mem::size_of::<FrameParams>(), 32);

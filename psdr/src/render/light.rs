@@ -24,7 +24,9 @@ pub struct LightSample {
     pub p: Vec3,
     /// Unit normal of the light triangle (its winding side).
     pub n: Vec3,
+    /// The emitter's radiance before its shape (`sky_shape` with `sky_gradient` toward the point it lights).
     pub radiance: Vec3,
+    pub sky_gradient: Vec3,
     pub two_sided: bool,
     /// Area density of the sampled point (selection pmf / area).
     pub pdf_area: f32,
@@ -49,22 +51,38 @@ pub fn sample_light(d: &SceneData, count: u32, u_select: f32, u1: f32, u2: f32) 
         p: Vec3::from(tri.v0) + e1 * b1 + e2 * b2,
         n: c.normalize(),
         radiance: Vec3::from(em.radiance),
+        sky_gradient: Vec3::from(em.sky_gradient),
         two_sided: em.two_sided != 0,
         pdf_area: light.pmf / area,
         emitter: light.emitter,
     }
 }
 
-/// Radiance leaving triangle `ti` toward the viewer; `front` says the viewer is on the winding side.
+/// What an emitter's radiance is multiplied by for a ray travelling in direction `dir` (unit) that reaches
+/// it: 1 + g dir.y per channel (`scene::Emitter::sky_gradient`; >= 0 for |g| <= 1, which scenes are checked
+/// for).
 #[inline(always)]
-pub fn emitted_radiance(d: &SceneData, ti: u32, front: bool) -> Vec3 {
+pub fn sky_shape(g: Vec3, dir: Vec3) -> Vec3 {
+    Vec3::ONE + g * dir.y
+}
+
+/// `sky_shape` of emitter `e` (an index into the scene data's emitters).
+#[inline(always)]
+pub fn emitter_shape(d: &SceneData, e: u32, dir: Vec3) -> Vec3 {
+    sky_shape(Vec3::from(d.emitters[e as usize].sky_gradient), dir)
+}
+
+/// Radiance leaving triangle `ti` toward a viewer whose ray travels in direction `dir`; `front` says the
+/// viewer is on the winding side.
+#[inline(always)]
+pub fn emitted_radiance(d: &SceneData, ti: u32, front: bool, dir: Vec3) -> Vec3 {
     let e = d.shading[ti as usize].emitter;
     if e == NONE {
         return Vec3::ZERO;
     }
     let em = &d.emitters[e as usize];
     if em.two_sided != 0 || front {
-        Vec3::from(em.radiance)
+        Vec3::from(em.radiance) * sky_shape(Vec3::from(em.sky_gradient), dir)
     } else {
         Vec3::ZERO
     }

@@ -6,7 +6,7 @@ use super::bsdf::{bsdf_at, bsdf_eval_pdf, bsdf_sample_at};
 use super::bvh::{trace_closest, trace_occluded, Hit};
 use super::camera::camera_ray;
 use super::layout::*;
-use super::light::{emitted_radiance, light_pdf_area, mis_power, sample_light};
+use super::light::{emitted_radiance, emitter_shape, light_pdf_area, mis_power, sample_light, sky_shape};
 use super::sampler::*;
 use super::scene_data::SceneData;
 use super::shading::{offset_origin, surface_point, SurfacePoint};
@@ -67,9 +67,10 @@ pub trait PathObserver {
     /// A surface was hit, with throughput `beta` arriving; the events that follow belong to this vertex.
     #[inline(always)]
     fn hit(&mut self, _hit: &Hit, _sp: &SurfacePoint, _beta: Vec3) {}
-    /// Emission found at the vertex and its MIS weight (1 where the camera sees it).
+    /// Emission found at the vertex, what the emitter's radiance was multiplied by toward the path
+    /// (`light::sky_shape`), and its MIS weight (1 where the camera sees it).
     #[inline(always)]
-    fn emission(&mut self, _emitter: u32, _le: Vec3, _mis: f32) {}
+    fn emission(&mut self, _emitter: u32, _le: Vec3, _shape: Vec3, _mis: f32) {}
     /// The path scatters here: the incoming direction in the shading frame.
     #[inline(always)]
     fn scatter(&mut self, _wi_local: Vec3) {}
@@ -142,19 +143,20 @@ pub fn trace_from<O: PathObserver>(
             out.object = sp.object;
         }
         // Emission reached by the previous bounce (or seen directly), MIS-weighted against NEE.
-        let le = emitted_radiance(d, hit.triangle, sp.front);
+        let le = emitted_radiance(d, hit.triangle, sp.front, dir);
         if le != Vec3::ZERO {
             let emitter = d.shading[hit.triangle as usize].emitter;
+            let shape = emitter_shape(d, emitter, dir);
             if depth == 0 {
                 out.radiance += beta * le;
                 out.first_emission = beta * le;
-                obs.emission(emitter, le, 1.0);
+                obs.emission(emitter, le, shape, 1.0);
             } else {
                 let cos_l = sp.ng.dot(-dir).abs();
                 let light_pdf = light_pdf_area(d, hit.triangle) * hit.t * hit.t / cos_l;
                 let mis = mis_power(prev_bsdf_pdf, light_pdf);
                 out.radiance += beta * le * mis;
-                obs.emission(emitter, le, mis);
+                obs.emission(emitter, le, shape, mis);
             }
         }
         if depth + 1 >= fp.max_depth {
@@ -182,12 +184,13 @@ pub fn trace_from<O: PathObserver>(
                         let light_pdf = ls.pdf_area * dist2 / cos_l;
                         let w = mis_power(light_pdf, pdf);
                         let w_over_pdf = w / light_pdf;
-                        out.radiance += beta * f * ls.radiance * w_over_pdf;
+                        let le = ls.radiance * sky_shape(ls.sky_gradient, wl);
+                        out.radiance += beta * f * le * w_over_pdf;
                         obs.nee(&NeeEvent {
                             u_select,
                             dir: wl,
                             emitter: ls.emitter,
-                            radiance: ls.radiance,
+                            radiance: le,
                             w_over_pdf,
                             f,
                             wo_local: wo,

@@ -78,7 +78,12 @@ impl SceneData {
         let mut emitter_of = vec![None; scene.objects.len()];
         for (oi, o) in scene.objects.iter().enumerate() {
             if let Some(e) = o.emitter {
-                d.emitters.push(EmitterGpu { radiance: e.radiance.to_array(), two_sided: e.two_sided as u32 });
+                d.emitters.push(EmitterGpu {
+                    radiance: e.radiance.to_array(),
+                    two_sided: e.two_sided as u32,
+                    sky_gradient: e.sky_gradient.to_array(),
+                    _pad0: 0.0,
+                });
                 emitter_of[oi] = Some(d.emitters.len() as u32 - 1);
             }
         }
@@ -405,8 +410,7 @@ mod tests {
     fn set_emitter_radiances_equals_building_the_relit_scene() {
         let mut scene = room();
         let plain = scene.objects.iter().position(|o| o.emitter.is_none()).unwrap();
-        scene.objects[plain].emitter =
-            Some(crate::scene::Emitter { radiance: Vec3::new(1.0, 2.0, 3.0), two_sided: true });
+        scene.objects[plain].emitter = Some(crate::scene::Emitter::uniform(Vec3::new(1.0, 2.0, 3.0), true));
         let emitting: Vec<usize> = (0..scene.objects.len()).filter(|&i| scene.objects[i].emitter.is_some()).collect();
         assert_eq!(emitting.len(), 2);
         let mut data = SceneData::build(&scene).unwrap();

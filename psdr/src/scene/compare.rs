@@ -109,8 +109,8 @@ pub fn same_scene(a: &Scene, b: &Scene) -> Result<(), String> {
         {
             return Err(what(format!("pose {pa:?} became {pb:?}")));
         }
-        if oa.emitter.map(|e| (e.two_sided, e.radiance.to_array()))
-            != ob.emitter.map(|e| (e.two_sided, e.radiance.to_array()))
+        if oa.emitter.map(|e| (e.two_sided, e.radiance.to_array(), e.sky_gradient.to_array()))
+            != ob.emitter.map(|e| (e.two_sided, e.radiance.to_array(), e.sky_gradient.to_array()))
         {
             return Err(what("emitter changed".into()));
         }

@@ -194,6 +194,10 @@ pub struct EmitterFile {
     pub radiance: ValueFile,
     #[serde(default)]
     pub two_sided: bool,
+    /// `[gr, gg, gb]`, each in [-1, 1]: how much brighter the emitter looks from below than level (a window's
+    /// sky over its ground; `scene::Emitter::sky_gradient`). Left out: 0, a uniform emitter.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sky_gradient: Option<[f32; 3]>,
 }
 
 /// Reads `2` as `[2]` and `[2, 3]` as itself, so "one number or a list" fields accept both spellings.

@@ -346,16 +346,20 @@ impl Loader<'_> {
         let pose = self.pose(s.transform.as_ref(), &format!("{field}.transform"))?;
         let emitter = match &s.emitter {
             None => None,
-            Some(e) => match e.radiance {
-                ValueFile::Number(x) => Some(Emitter { radiance: Vec3::splat(x), two_sided: e.two_sided }),
-                ValueFile::Rgb(c) => Some(Emitter { radiance: Vec3::from(c), two_sided: e.two_sided }),
-                ValueFile::Texture(_) => {
-                    return Err(self.err(
-                        format!("{field}.emitter.radiance"),
-                        "textured emitters are not supported; give an RGB triple",
-                    ))
-                }
-            },
+            Some(e) => {
+                let radiance = match e.radiance {
+                    ValueFile::Number(x) => Vec3::splat(x),
+                    ValueFile::Rgb(c) => Vec3::from(c),
+                    ValueFile::Texture(_) => {
+                        return Err(self.err(
+                            format!("{field}.emitter.radiance"),
+                            "textured emitters are not supported; give an RGB triple",
+                        ))
+                    }
+                };
+                let sky_gradient = e.sky_gradient.map_or(Vec3::ZERO, Vec3::from);
+                Some(Emitter { radiance, two_sided: e.two_sided, sky_gradient })
+            }
         };
         Ok(Object { name: s.name.clone(), parts, pose, emitter })
     }

@@ -94,9 +94,11 @@ pub fn save_scene(scene: &Scene, path: &Path) -> Result<()> {
                 quaternion: Some(o.pose.rotation.to_array()),
                 scale: Some(o.pose.scale.to_array().to_vec()),
             }),
-            emitter: o
-                .emitter
-                .map(|e| EmitterFile { radiance: ValueFile::Rgb(e.radiance.to_array()), two_sided: e.two_sided }),
+            emitter: o.emitter.map(|e| EmitterFile {
+                radiance: ValueFile::Rgb(e.radiance.to_array()),
+                two_sided: e.two_sided,
+                sky_gradient: (e.sky_gradient != Vec3::ZERO).then(|| e.sky_gradient.to_array()),
+            }),
         });
     }
     let c = &scene.camera;

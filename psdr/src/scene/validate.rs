@@ -68,6 +68,13 @@ pub fn validate(scene: &Scene) -> Result<(), (String, String)> {
             if !(e.radiance.is_finite() && e.radiance.min_element() >= 0.0) {
                 return Err((f("emitter.radiance"), format!("{} must be finite and non-negative", e.radiance)));
             }
+            // |g| <= 1 keeps the emission non-negative in every direction (1 + g d_y >= 0).
+            if !(e.sky_gradient.is_finite() && e.sky_gradient.abs().max_element() <= 1.0) {
+                return Err((
+                    f("emitter.sky_gradient"),
+                    format!("{} must be finite and within [-1, 1]", e.sky_gradient),
+                ));
+            }
         }
         for (k, part) in o.parts.iter().enumerate() {
             if part.material >= scene.materials.len() {

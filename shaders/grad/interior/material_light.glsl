@@ -74,7 +74,7 @@ uint backward_sweep(vec3 delta, uint row, uint reads_at) {
         RecordedVertex v = rec_vertices[j - 1u];
         vec3 a = delta * v.throughput;
         if (v.emitter != NONE) {
-            add3(row, slots[material_count + v.emitter], a * v.emission_mis);
+            add3(row, slots[material_count + v.emitter], a * v.emission_shape * v.emission_mis);
         }
         uint albedo = slots[v.material];
         uint roughness = slots[material_count + emitter_count + v.material];
@@ -86,7 +86,7 @@ uint backward_sweep(vec3 delta, uint row, uint reads_at) {
         vec3 d_rough = vec3(0.0);
         vec3 d_spec = vec3(0.0);
         if (v.has_nee) {
-            add3(row, slots[material_count + v.nee_emitter], a * v.nee_f * v.nee_w_over_pdf);
+            add3(row, slots[material_count + v.nee_emitter], a * v.nee_f * emitter_shape(v.nee_emitter, v.nee_dir) * v.nee_w_over_pdf);
             if (wanted != WANTED_NOTHING) {
                 vec3 via_nee = a * v.nee_radiance * v.nee_w_over_pdf;
                 BsdfGrad f_grad = wanted == WANTED_ALL ? bsdf_eval_grad(v.bsdf, v.wi_local, v.nee_wo_local)

@@ -27,6 +27,7 @@ struct RecordedVertex {
     float v;
     vec3 emission;
     uint emitter;
+    vec3 emission_shape;
     float emission_mis;
     vec3 local;
     vec3 wi_local;
@@ -83,6 +84,7 @@ void recorder_hit(Hit hit, SurfacePoint sp, vec3 beta) {
     v.v = hit.v;
     v.emission = vec3(0.0);
     v.emitter = NONE;
+    v.emission_shape = vec3(0.0);
     v.emission_mis = 0.0;
     v.local = vec3(0.0);
     v.wi_local = vec3(0.0);
@@ -105,9 +107,10 @@ void recorder_hit(Hit hit, SurfacePoint sp, vec3 beta) {
     rec_count += 1u;
 }
 
-void recorder_emission(uint emitter, vec3 le, float mis) {
+void recorder_emission(uint emitter, vec3 le, vec3 shape, float mis) {
     rec_current.emitter = emitter;
     rec_current.emission = le;
+    rec_current.emission_shape = shape;
     rec_current.emission_mis = mis;
     rec_current.local += le * mis;
 }
@@ -148,7 +151,7 @@ vec3 path_record_radiance() {
 
 #define OBSERVE_START(origin, dir) if (rec_enabled) recorder_start(origin, dir)
 #define OBSERVE_HIT(hit, sp, beta) if (rec_enabled) recorder_hit(hit, sp, beta)
-#define OBSERVE_EMISSION(emitter, le, mis) if (rec_enabled) recorder_emission(emitter, le, mis)
+#define OBSERVE_EMISSION(emitter, le, shape, mis) if (rec_enabled) recorder_emission(emitter, le, shape, mis)
 #define OBSERVE_SCATTER(wi) if (rec_enabled) recorder_scatter(wi)
 #define OBSERVE_NEE(u_select, wl, emitter, radiance, w_over_pdf, f, wo) if (rec_enabled) recorder_nee(u_select, wl, emitter, radiance, w_over_pdf, f, wo)
 #define OBSERVE_CONTINUATION(dir, pdf, q, weight, wo) if (rec_enabled) recorder_continuation(dir, pdf, q, weight, wo)

@@ -210,7 +210,7 @@ fn shadow_sample(
         let w = (om + n_hat * (sign * SIDE_EPS)).normalize();
         let o = offset_origin(lit.p, lit.ng, w);
         let le = match trace_closest(&d.nodes, &d.triangles, o, w, f32::INFINITY) {
-            Some(h) => emitted_radiance(d, h.triangle, Vec3::from(d.shading[h.triangle as usize].ng).dot(-w) > 0.0),
+            Some(h) => emitted_radiance(d, h.triangle, Vec3::from(d.shading[h.triangle as usize].ng).dot(-w) > 0.0, w),
             None => Vec3::ZERO,
         };
         (w, le)

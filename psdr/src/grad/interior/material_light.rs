@@ -22,6 +22,7 @@ use crate::grad::{accumulate_blocks, check_adjoint};
 use crate::render::bsdf::BsdfParams;
 use crate::render::cpu::frame_params;
 use crate::render::layout::{TextureGpu, NONE};
+use crate::render::light::emitter_shape;
 use crate::render::texture::texture_footprint;
 use crate::render::SceneData;
 use crate::scene::ParamPath;
@@ -351,7 +352,7 @@ pub(crate) fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVer
     for v in verts.iter().rev() {
         let a = delta * v.throughput;
         if v.emitter != NONE {
-            add3(grad, l.emitter[v.emitter as usize], a * v.emission_mis);
+            add3(grad, l.emitter[v.emitter as usize], a * v.emission_shape * v.emission_mis);
         }
         let m = v.material as usize;
         let (mut d_albedo, mut d_rough, mut d_spec) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
@@ -363,7 +364,7 @@ pub(crate) fn backward_sweep(d: &SceneData, l: &GradLayout, verts: &[RecordedVer
             Wanted::All => Some(bsdf_eval_grad as fn(&BsdfParams, Vec3, Vec3) -> BsdfGrad),
         };
         if let Some(n) = &v.nee {
-            add3(grad, l.emitter[n.emitter as usize], a * n.f * n.w_over_pdf);
+            add3(grad, l.emitter[n.emitter as usize], a * n.f * emitter_shape(d, n.emitter, n.dir) * n.w_over_pdf);
             if let Some(grad_of) = grad_of {
                 let via_nee = a * n.radiance * n.w_over_pdf;
                 let f_grad = grad_of(&v.bsdf(), v.wi_local, n.wo_local);

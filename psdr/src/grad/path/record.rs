@@ -48,9 +48,11 @@ pub struct RecordedVertex {
     pub v: f32,
     /// Path throughput arriving at this vertex (T_k).
     pub throughput: Vec3,
-    /// Emitter found here (NONE when none) and its MIS weight.
+    /// Emitter found here (NONE when none), its emission, what the emitter's radiance was multiplied by
+    /// toward the path (`light::sky_shape`: d(emission)/d(radiance)), and its MIS weight.
     pub emitter: u32,
     pub emission: Vec3,
+    pub emission_shape: Vec3,
     pub emission_mis: f32,
     pub nee: Option<RecordedNee>,
     pub next: Option<RecordedContinuation>,
@@ -127,9 +129,9 @@ impl PathObserver for Recorder<'_> {
         });
     }
 
-    fn emission(&mut self, emitter: u32, le: Vec3, mis: f32) {
+    fn emission(&mut self, emitter: u32, le: Vec3, shape: Vec3, mis: f32) {
         let v = self.last();
-        (v.emitter, v.emission, v.emission_mis) = (emitter, le, mis);
+        (v.emitter, v.emission, v.emission_shape, v.emission_mis) = (emitter, le, shape, mis);
         v.local += le * mis;
     }
 

@@ -160,7 +160,7 @@ pub fn add_visible_ceiling_lights(
                 rotation: Quat::from_rotation_x(std::f32::consts::FRAC_PI_2),
                 scale: Vec3::ONE,
             },
-            emitter: Some(Emitter { radiance: Vec3::ONE, two_sided: false }),
+            emitter: Some(Emitter::uniform(Vec3::ONE, false)),
         });
         names.push(name);
     }

@@ -409,7 +409,7 @@ mod tests {
             name: "light_window_3".into(),
             parts: vec![part],
             pose: Pose { translation: at, rotation: Quat::IDENTITY, scale },
-            emitter: Some(Emitter { radiance: Vec3::new(5.0, light, 4.0), two_sided: false }),
+            emitter: Some(Emitter::uniform(Vec3::new(5.0, light, 4.0), false)),
         });
         let fitted = fit_light_outlines(&mut scene, &photo, None, 2.0);
         assert_eq!(fitted.len(), 1, "{fitted:?}");

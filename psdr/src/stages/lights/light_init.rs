@@ -33,7 +33,7 @@ fn light(name: String, material: usize, size: (f32, f32), at: Vec3, rot_deg: [f3
         name,
         parts: vec![part],
         pose: Pose { translation: at, rotation: Quat::from_euler(EulerRot::ZYX, r[2], r[1], r[0]), scale: Vec3::ONE },
-        emitter: Some(Emitter { radiance: Vec3::ONE, two_sided: false }),
+        emitter: Some(Emitter::uniform(Vec3::ONE, false)),
     }
 }
 

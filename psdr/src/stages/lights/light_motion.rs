@@ -116,7 +116,7 @@ mod tests {
             name: name.into(),
             parts: vec![rectangle_mesh(size.0, size.1)],
             pose: Pose { translation: at, rotation: rot, scale: Vec3::ONE },
-            emitter: Some(Emitter { radiance: Vec3::ONE, two_sided: false }),
+            emitter: Some(Emitter::uniform(Vec3::ONE, false)),
         };
         let down = Quat::from_euler(EulerRot::ZYX, 0.0, 0.0, 90f32.to_radians());
         s.objects.push(light("lamp", (1.0, 1.0), Vec3::new(1.3, 2.49, 0.0), down));

@@ -130,7 +130,7 @@ pub fn add_visible_windows(
             parts: vec![part],
             // The rectangle faces +z: turned about the vertical to face into the room.
             pose: Pose { translation: centre, rotation: Quat::from_rotation_y(n.x.atan2(n.z)), scale: Vec3::ONE },
-            emitter: Some(Emitter { radiance: Vec3::ONE, two_sided: false }),
+            emitter: Some(Emitter::uniform(Vec3::ONE, false)),
         });
         names.push(name);
     }

@@ -75,7 +75,7 @@ impl PathObserver for BinObserver<'_> {
         self.vertex += 1;
     }
 
-    fn emission(&mut self, _emitter: u32, le: Vec3, mis: f32) {
+    fn emission(&mut self, _emitter: u32, le: Vec3, _shape: Vec3, mis: f32) {
         let reflected = (self.vertex > 1).then_some(self.after_first);
         self.add(reflected, self.beta * le * mis);
     }

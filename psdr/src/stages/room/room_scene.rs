@@ -45,7 +45,7 @@ pub fn room_scene(e: &RoomEstimate, fov_y_deg: f32, width: u32, height: u32) -> 
             2,
             Vec3::new(cx, h - 0.01, cz),
             [90.0, 0.0, 0.0],
-            Some(Emitter { radiance: Vec3::splat(8.0), two_sided: false }),
+            Some(Emitter::uniform(Vec3::splat(8.0), false)),
             0.6,
         ),
     ];
