@@ -1,6 +1,7 @@
 //! The top of `report.html`: the photo, the final render and their difference side by side, the evaluation
 //! against a truth when the run had one (`--set truth=...`), the fitted emitters (lights, windows) with
-//! their radiances, the lights each fit removed or the placement merged (`lights_removed` in result.json), and
+//! their radiances and sky gradients, the lights each fit removed or the placement merged (`lights_removed` in
+//! result.json), whether the windows' daylight was shaped by direction (`window_sky`), and
 //! the camera's side of the photo: its exposure and white balance, which psdr absorbs into the lights (the
 //! light-scale search's factor per channel), and the share of clipped pixels the photometric fits left out.
 
@@ -69,15 +70,45 @@ pub fn build_summary(out: &Path, photo: &Path, render: &Path, scene: &Scene, rec
         .iter()
         .filter_map(|o| {
             let e = o.emitter.as_ref()?;
-            let r = e.radiance;
-            Some(vec![o.name.clone(), format!("{:.3}", r.x), format!("{:.3}", r.y), format!("{:.3}", r.z)])
+            let (r, g) = (e.radiance, e.sky_gradient);
+            let shape = if g == glam::Vec3::ZERO { "-".into() } else { format!("{:.2}, {:.2}, {:.2}", g.x, g.y, g.z) };
+            Some(vec![o.name.clone(), format!("{:.3}", r.x), format!("{:.3}", r.y), format!("{:.3}", r.z), shape])
         })
         .collect();
     summary.tables.push(SummaryTable {
         title: format!("Emitters (lights and windows): {}", lights.len()),
-        header: ["light", "radiance R", "G", "B"].map(String::from).to_vec(),
+        header: ["light", "radiance R", "G", "B", "sky gradient (R, G, B)"].map(String::from).to_vec(),
         rows: lights,
     });
+    if let Some(w) = recorded.get("window_sky").filter(|w| w["windows"].as_array().is_some_and(|a| !a.is_empty())) {
+        let pct = |k: &str| w[k].as_f64().map_or("-".into(), |v| format!("{:.2} %", 100.0 * v));
+        let kept =
+            if w["kept"].as_bool() == Some(true) { "kept" } else { "not kept (the gain is under the threshold)" };
+        let rows = w["windows"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .zip(w["sky_gradient"].as_array().into_iter().flatten())
+            .map(|(n, g)| {
+                let g: Vec<String> =
+                    g.as_array().into_iter().flatten().filter_map(Value::as_f64).map(|v| format!("{v:.2}")).collect();
+                vec![
+                    n.as_str().unwrap_or("").into(),
+                    g.join(", "),
+                    pct("relative_rms_as_they_were"),
+                    pct("relative_rms_shaped"),
+                    kept.into(),
+                ]
+            })
+            .collect();
+        summary.tables.push(SummaryTable {
+            title: "Windows' daylight shaped by direction (radiance x (1 + g d_y): the sky over the ground)".into(),
+            header: ["window", "fitted g (R, G, B)", "error uniform", "error shaped", "decision"]
+                .map(String::from)
+                .to_vec(),
+            rows,
+        });
+    }
     if let Some(Value::Array(fits)) = recorded.get("lights_removed") {
         let rows: Vec<Vec<String>> = fits
             .iter()

@@ -7,6 +7,8 @@
 //! `search_ceiling_height(s, obs, opts)` places a ceiling the photo does not show where its candidate lights
 //! fit the photo best (`stages::ceiling_search`), recorded as `ceiling_search`. `outline_lights(s, obs)`
 //! refits the outlines of the lights the photo shows at their fitted radiances, recorded as `light_outlines`.
+//! `fit_window_skies(s, photo, opts)` fits the visible windows' daylight shaped by direction
+//! (`stages::window_sky`), recorded as `window_sky`.
 
 use super::api_support::{check_photo, on_backend, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
@@ -14,8 +16,8 @@ use super::vision_api::ObsHandle;
 use crate::error::Error;
 use crate::loss::Tensor;
 use crate::stages::{
-    fit_lights, init_lights, refine_light_placement, search_ceiling_height, CeilingSearchOptions, LightFitOptions,
-    LightInitOptions, LightPlacementOptions,
+    fit_lights, fit_window_skies, init_lights, refine_light_placement, search_ceiling_height, CeilingSearchOptions,
+    LightFitOptions, LightInitOptions, LightPlacementOptions, WindowSkyOptions,
 };
 use glam::Vec3;
 use rhai::{Array, Dynamic, Engine, Map};
@@ -115,6 +117,52 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
         push_removed(&mut run.recorded, entry);
     }
     Ok(out)
+}
+
+/// `fit_window_skies(s, photo, #{spp, downsample, white, tint_prior, segments, min_gain, windows})`: the
+/// windows' sky gradients (by default every window the photo shows, `is_visible_window`) fitted with every
+/// light's radiance; kept where they lower the fit's relative error by `min_gain`. Returns the record.
+fn window_skies(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> crate::Result<Dynamic> {
+    const WHAT: &str = "fit_window_skies";
+    let mut o = WindowSkyOptions::default();
+    let segments = surface_masks(WHAT, scene, photo, opts)?;
+    o.fit.white = flag(WHAT, opts, "white")?;
+    let mut windows: Vec<String> = scene
+        .0
+        .objects
+        .iter()
+        .filter(|x| x.emitter.is_some() && crate::stages::is_visible_window(&x.name))
+        .map(|x| x.name.clone())
+        .collect();
+    for (k, v) in opts.iter().filter(|(k, _)| !["segments", "white"].contains(&k.as_str())) {
+        if k.as_str() == "windows" {
+            let list = v.clone().into_typed_array::<rhai::ImmutableString>();
+            let list = list.map_err(|_| Error::Invalid(format!("{WHAT}: windows must be an array of names")))?;
+            windows = list.iter().map(|n| n.to_string()).collect();
+            continue;
+        }
+        let n = number(k, v, WHAT)?;
+        match k.as_str() {
+            "downsample" => o.fit.downsample = n.max(1.0) as usize,
+            "spp" => o.fit.spp = n.max(1.0) as u32,
+            "max_depth" => o.fit.max_depth = Some(n.max(1.0) as u32),
+            "seed" => o.fit.seed = n.max(0.0) as u32,
+            "tint_prior" => o.fit.tint_prior = n.max(0.0) as f32,
+            "min_gain" => o.min_gain = n as f32,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "{WHAT}: unknown option '{other}' (downsample, spp, max_depth, seed, tint_prior, min_gain, \
+                     windows, segments, white)"
+                )))
+            }
+        }
+    }
+    let img = photo.value();
+    check_photo(WHAT, &scene.0, img)?;
+    let found = on_backend(run, WHAT, |b| fit_window_skies(b, &mut scene.0, &windows, &img.data, &segments, &o))?;
+    let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
+    run.borrow_mut().recorded.insert("window_sky".into(), v.clone());
+    rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
 }
 
 /// Appends one entry to `lights_removed` (every fit or merge that removed lights, for the report's light list).
@@ -366,6 +414,10 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
     });
     engine.register_fn("lights_init", |s: &mut SceneHandle, opts: Map| -> Rr<Array> {
         lights_init(s, &opts).map_err(rhai_err)
+    });
+    let r = run.clone();
+    engine.register_fn("fit_window_skies", move |s: &mut SceneHandle, photo: Tensor, opts: Map| -> Rr<Dynamic> {
+        window_skies(&r, s, &photo, &opts).map_err(rhai_err)
     });
     let r = run.clone();
     engine.register_fn("fit_lights", move |s: &mut SceneHandle, photo: Tensor| -> Rr<Map> {

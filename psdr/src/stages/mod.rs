@@ -19,6 +19,7 @@ pub use lights::{
 };
 pub use lights::{fit_light_outlines, LightOutline};
 pub use lights::{fit_lights, nnls, LightFit, LightFitOptions};
+pub use lights::{fit_window_skies, WindowSky, WindowSkyOptions};
 pub use lights::{init_lights, LightInitOptions};
 pub use lights::{light_motion, LightMotion};
 pub use lights::{refine_light_placement, LightPlacement, LightPlacementOptions};

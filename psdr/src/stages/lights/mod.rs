@@ -2,7 +2,8 @@
 //! (`ceiling_search`); candidate lights (`light_init`), the windows and ceiling lights the photo shows
 //! (`window_lights`, `ceiling_panels`), their
 //! radiances fitted to the photo with backward elimination (`light_fit`), and their positions and sizes
-//! (`light_placement`), and how each may move when the joint fit moves it by gradient (`light_motion`).
+//! (`light_placement`), the windows' daylight shaped by direction (`window_sky`), and how each may move when
+//! the joint fit moves it by gradient (`light_motion`).
 
 mod albedo_free_split;
 mod ceiling_panels;
@@ -14,6 +15,7 @@ mod light_motion;
 mod light_placement;
 mod light_view;
 mod window_lights;
+mod window_sky;
 
 pub use ceiling_panels::{add_visible_ceiling_lights, is_edge_ceiling_light, is_visible_ceiling_light};
 pub use ceiling_search::{search_ceiling_height, CeilingSearch, CeilingSearchOptions};
@@ -23,6 +25,7 @@ pub use light_init::{init_lights, LightInitOptions};
 pub use light_motion::{light_motion, LightMotion};
 pub use light_placement::{refine_light_placement, LightPlacement, LightPlacementOptions};
 pub use window_lights::{add_visible_windows, is_visible_window};
+pub use window_sky::{fit_window_skies, WindowSky, WindowSkyOptions};
 
 /// Whether `name` is a light the photo shows where its pixels are (a window or a ceiling light): the
 /// placement leaves it there.
