@@ -27,6 +27,25 @@ const CX: f64 = 0.3;
 const CZ: f64 = -0.2;
 const H: f64 = 1.5;
 
+/// Mean of `f` over the floor points (y = 0) that pixel (px, py)'s footprint sees, by a sub x sub midpoint
+/// rule through an independently written pinhole model.
+fn footprint_mean(cam: &Camera, px: u32, py: u32, sub: u32, mut f: impl FnMut(DVec3) -> DVec3) -> DVec3 {
+    let origin = cam.origin.as_dvec3();
+    let (right, upv, fwd) = (cam.right().as_dvec3(), cam.up.as_dvec3(), cam.forward.as_dvec3());
+    let mut sum = DVec3::ZERO;
+    for j in 0..sub {
+        for i in 0..sub {
+            let xs = px as f64 + (i as f64 + 0.5) / sub as f64;
+            let ys = py as f64 + (j as f64 + 0.5) / sub as f64;
+            let c = pinhole_dir_camera_space(cam, xs, ys);
+            let dir = right * c[0] + upv * c[1] + fwd * c[2];
+            assert!(dir.y < 0.0, "pixel ({px}, {py}) must see the floor");
+            sum += f(origin + dir * (-origin.y / dir.y));
+        }
+    }
+    sum / (sub * sub) as f64
+}
+
 fn polygon_irradiance(x: DVec3, n: DVec3, corners: &[DVec3]) -> f64 {
     let mut sum = 0.0;
     for i in 0..corners.len() {
@@ -57,28 +76,16 @@ fn direct_light_on_a_lambertian_floor_matches_the_polygon_formula() {
         .iter()
         .map(|&(sx, sz)| DVec3::new(CX + sx * LW / 2.0, H, CZ + sz * LH / 2.0))
         .collect();
-    let origin = cam.origin.as_dvec3();
-    let (right, upv, fwd) = (cam.right().as_dvec3(), cam.up.as_dvec3(), cam.forward.as_dvec3());
     let n = 65536;
     let mut worst: f64 = 0.0;
     for py in 0..h {
         for px in 0..w {
             // Expected: mean of a/pi E over the pixel footprint on the floor (y = 0).
-            let mut expected = 0.0;
-            let sub = 16;
-            for j in 0..sub {
-                for i in 0..sub {
-                    let xs = px as f64 + (i as f64 + 0.5) / sub as f64;
-                    let ys = py as f64 + (j as f64 + 0.5) / sub as f64;
-                    let c = pinhole_dir_camera_space(&cam, xs, ys);
-                    let dir = right * c[0] + upv * c[1] + fwd * c[2];
-                    assert!(dir.y < 0.0, "pixel ({px}, {py}) must see the floor");
-                    let hit = origin + dir * (-origin.y / dir.y);
-                    assert!(hit.x.abs() < 10.0 && hit.z.abs() < 10.0);
-                    expected += ALBEDO as f64 / std::f64::consts::PI * polygon_irradiance(hit, DVec3::Y, &corners);
-                }
-            }
-            expected /= (sub * sub) as f64;
+            let expected = footprint_mean(&cam, px, py, 16, |hit| {
+                assert!(hit.x.abs() < 10.0 && hit.z.abs() < 10.0);
+                DVec3::splat(ALBEDO as f64 / std::f64::consts::PI * polygon_irradiance(hit, DVec3::Y, &corners))
+            })
+            .x;
             let (mean, var) = pixel_samples(&d, &settings, px, py, n);
             let se = (var.x as f64 / n as f64).sqrt();
             let bound = 5.0 * se + 1e-4 * expected;
@@ -148,30 +155,17 @@ fn a_windows_sky_gradient_matches_quadrature_over_the_window() {
         .iter()
         .map(|&(sx, sy)| DVec3::new(WX + sx * LW / 2.0, WY + sy * LH / 2.0, WZ))
         .collect();
-    let origin = cam.origin.as_dvec3();
-    let (right, upv, fwd) = (cam.right().as_dvec3(), cam.up.as_dvec3(), cam.forward.as_dvec3());
     let n = 65536;
     let mut worst: f64 = 0.0;
     for py in 0..h {
         for px in 0..w {
-            let mut expected = DVec3::ZERO;
-            let sub = 8;
-            for j in 0..sub {
-                for i in 0..sub {
-                    let xs = px as f64 + (i as f64 + 0.5) / sub as f64;
-                    let ys = py as f64 + (j as f64 + 0.5) / sub as f64;
-                    let c = pinhole_dir_camera_space(&cam, xs, ys);
-                    let dir = right * c[0] + upv * c[1] + fwd * c[2];
-                    assert!(dir.y < 0.0, "pixel ({px}, {py}) must see the floor");
-                    let hit = origin + dir * (-origin.y / dir.y);
-                    assert!(hit.z > WZ + 0.25 && hit.z < WZ + 1.9, "pixel ({px}, {py}): floor point {hit}");
-                    let uniform = polygon_irradiance(hit, DVec3::Y, &corners);
-                    let e0 = irradiance(hit, DVec3::ZERO).x;
-                    assert!((e0 - uniform).abs() < 2e-5 * uniform, "quadrature {e0} vs polygon formula {uniform}");
-                    expected += ALBEDO as f64 / std::f64::consts::PI * irradiance(hit, g);
-                }
-            }
-            expected /= (sub * sub) as f64;
+            let expected = footprint_mean(&cam, px, py, 8, |hit| {
+                assert!(hit.z > WZ + 0.25 && hit.z < WZ + 1.9, "pixel ({px}, {py}): floor point {hit}");
+                let uniform = polygon_irradiance(hit, DVec3::Y, &corners);
+                let e0 = irradiance(hit, DVec3::ZERO).x;
+                assert!((e0 - uniform).abs() < 2e-5 * uniform, "quadrature {e0} vs polygon formula {uniform}");
+                ALBEDO as f64 / std::f64::consts::PI * irradiance(hit, g)
+            });
             let (mean, var) = pixel_samples(&d, &settings, px, py, n);
             for c in 0..3 {
                 let se = (var[c] as f64 / n as f64).sqrt();

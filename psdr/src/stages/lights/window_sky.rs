@@ -92,7 +92,11 @@ pub fn fit_window_skies(
     // lobes take the same samples), then each window's sky lobe in its column and its ground lobe appended.
     let others: Vec<usize> = lights.iter().copied().filter(|i| !window_objects.contains(i)).collect();
     let progress = crate::progress::activity(
-        format!("window sky: unit renders of {} lights and {} windows' two lobes", others.len(), window_objects.len()),
+        format!(
+            "window sky: unit renders of {} lights and of {} windows' sky and ground",
+            others.len(),
+            window_objects.len()
+        ),
         Some(others.len() + 2 * window_objects.len()),
     );
     let mut basis = vec![vec![]; lights.len()];
