@@ -4,8 +4,9 @@
 
 use crate::rooms::{room_scene, FurnitureBox, RoomSpec};
 use glam::{Vec2, Vec3};
-use psdr::render::{render_cpu, SceneData};
+use psdr::render::{render_cpu, Frame, SceneData};
 use psdr::scene::{save_scene, Emitter, Material, RenderSettings, Scene};
+use psdr::vision::{canonical_class, Instance, Instances};
 use std::path::Path;
 
 /// The truth in the pipeline's naming (room surfaces floor, ceiling, wall_x0 ... wall_z1 with materials floor,
@@ -63,6 +64,30 @@ pub fn truth_room() -> (Scene, Vec<(u16, &'static str)>) {
     // Every bounce, as a photo records it (16 vertices: within 0.1 % of converged in a light room).
     s.settings = RenderSettings { spp: 256, max_depth: 16, rr_depth: 3, seed: 7 };
     (s, ids)
+}
+
+/// One sample per pixel of `s`, for its object ids.
+pub fn id_frame(s: &Scene) -> Frame {
+    let mut s = s.clone();
+    s.settings = RenderSettings { spp: 1, max_depth: 1, rr_depth: 1, seed: 0 };
+    render_cpu(&SceneData::build(&s).unwrap(), &s.settings, &|_, _| {})
+}
+
+/// The segmentation of `truth`'s frame `f`: each object named in `ids` covers its pixels with its id, its
+/// class the name's first word.
+pub fn instances_of(truth: &Scene, f: &Frame, ids: &[(u16, &str)]) -> Instances {
+    let map = |o: u32| truth.objects.get(o as usize).and_then(|x| ids.iter().find(|(_, n)| *n == x.name));
+    let px: Vec<u16> = f.object_id.iter().map(|&o| map(o).map_or(0, |i| i.0)).collect();
+    let instances = ids
+        .iter()
+        .map(|&(id, name)| {
+            let (class, kind) = canonical_class(name.split('_').next().unwrap());
+            let pixels = px.iter().filter(|&&v| v == id).count();
+            Instance { id, label: None, class: class.into(), kind, pixels }
+        })
+        .filter(|i| i.pixels > 0)
+        .collect();
+    Instances { width: f.width as usize, height: f.height as usize, ids: px, instances }
 }
 
 /// Renders `truth` and writes into `dir` what the pipeline reads (photo.png as 8-bit sRGB, its instance masks

@@ -7,32 +7,8 @@
 //! when the object stage merged them, about half without (0.49); a name whose id is no instance is left out.
 
 use glam::{Quat, Vec3};
-use psdr::render::{render_cpu, Frame, SceneData};
-use psdr::scene::{RenderSettings, Scene};
 use psdr::vision::{canonical_class, Instance, Instances};
-use psdr_tests::known_geometry::truth_room;
-
-fn ids_frame(s: &Scene) -> Frame {
-    let mut s = s.clone();
-    s.settings = RenderSettings { spp: 1, max_depth: 1, rr_depth: 1, seed: 0 };
-    render_cpu(&SceneData::build(&s).unwrap(), &s.settings, &|_, _| {})
-}
-
-/// The masks of `truth`'s frame: each named object's pixels as its id.
-fn masks(truth: &Scene, f: &Frame, ids: &[(u16, &str)]) -> Instances {
-    let map = |o: u32| truth.objects.get(o as usize).and_then(|x| ids.iter().find(|(_, n)| *n == x.name));
-    let px: Vec<u16> = f.object_id.iter().map(|&o| map(o).map_or(0, |i| i.0)).collect();
-    let instances = ids
-        .iter()
-        .map(|&(id, name)| {
-            let (class, kind) = canonical_class(name.split('_').next().unwrap());
-            let pixels = px.iter().filter(|&&v| v == id).count();
-            Instance { id, label: None, class: class.into(), kind, pixels }
-        })
-        .filter(|i| i.pixels > 0)
-        .collect();
-    Instances { width: f.width as usize, height: f.height as usize, ids: px, instances }
-}
+use psdr_tests::known_geometry::{id_frame, instances_of, truth_room};
 
 fn iou_of(v: &serde_json::Value, name: &str) -> Option<f64> {
     v["objects"].as_array()?.iter().find(|o| o["name"] == name)?["iou"].as_f64()
@@ -41,8 +17,8 @@ fn iou_of(v: &serde_json::Value, name: &str) -> Option<f64> {
 #[test]
 fn mask_iou_is_one_for_the_truth_and_drops_for_a_moved_object() {
     let (truth, ids) = truth_room();
-    let tf = ids_frame(&truth);
-    let inst = masks(&truth, &tf, &ids);
+    let tf = id_frame(&truth);
+    let inst = instances_of(&truth, &tf, &ids);
     let (w, h) = (truth.camera.width as usize, truth.camera.height as usize);
     let table_px = inst.instances.iter().find(|i| i.id == 8).unwrap().pixels;
     assert!(table_px > 300, "the table shows {table_px} pixels");
@@ -61,7 +37,7 @@ fn mask_iou_is_one_for_the_truth_and_drops_for_a_moved_object() {
     let k = moved.object_index("table_8").unwrap();
     let along = moved.objects[k].pose.rotation * Vec3::X;
     moved.objects[k].pose.translation += 0.6 * along;
-    let mf = ids_frame(&moved);
+    let mf = id_frame(&moved);
     let v = psdr::stages::mask_ious(&moved, &mf, &inst, &[]).unwrap();
     let iou = iou_of(&v, "table_8").unwrap();
     // Counted here: pixels of the moved table and of instance 8.
@@ -82,7 +58,7 @@ fn mask_iou_is_one_for_the_truth_and_drops_for_a_moved_object() {
     // Turned by 90 degrees in place: its outline changes, its centre does not.
     let mut turned = truth.clone();
     turned.objects[k].pose.rotation = Quat::from_rotation_y(90f32.to_radians()) * turned.objects[k].pose.rotation;
-    let v = psdr::stages::mask_ious(&turned, &ids_frame(&turned), &inst, &[]).unwrap();
+    let v = psdr::stages::mask_ious(&turned, &id_frame(&turned), &inst, &[]).unwrap();
     let turned_iou = iou_of(&v, "table_8").unwrap();
     eprintln!("table turned by 90 degrees: IoU {turned_iou:.3}");
     assert!(turned_iou < 0.9, "{v}");

@@ -16,8 +16,8 @@ use super::vision_api::ObsHandle;
 use crate::error::Error;
 use crate::loss::Tensor;
 use crate::stages::{
-    fit_lights, fit_window_skies, init_lights, refine_light_placement, search_ceiling_height, CeilingSearchOptions,
-    LightFitOptions, LightInitOptions, LightPlacementOptions, WindowSkyOptions,
+    fit_lights, fit_window_skies, init_lights, refine_light_placement, search_ceiling_height, Agreement,
+    CeilingSearchOptions, LightFitOptions, LightInitOptions, LightPlacementOptions, WindowSkyOptions,
 };
 use glam::Vec3;
 use rhai::{Array, Dynamic, Engine, Map};
@@ -31,6 +31,38 @@ fn flag(what: &str, opts: &Map, key: &str) -> crate::Result<bool> {
     opts.get(key).map_or(Ok(false), |v| {
         v.as_bool().map_err(|_| Error::Invalid(format!("{what}: '{key}' must be true or false")))
     })
+}
+
+/// Options every light fit reads apart from its numbers: the surfaces' masks, white lights, and where the
+/// fitted geometry agrees with the segmentation.
+const SHARED_KEYS: [&str; 4] = ["segments", "white", "agreement", "min_agreement"];
+
+/// Default share of a compared block's pixels that must agree with the fitted geometry (`Agreement`): the
+/// outlines' misfit of a pose stays in (real rooms with their own models: no block of the light fit under
+/// 0.75, 0-0.5 % under it in the others), a retrieved model that misses a quarter of a block leaves it out.
+const MIN_AGREEMENT: f32 = 0.75;
+
+/// An options map's `agreement` (a mask of the camera's size, `geometry_agreement`) and `min_agreement`;
+/// without a mask, every pixel agrees.
+pub(super) fn agreement(what: &str, scene: &SceneHandle, opts: &Map) -> crate::Result<Agreement> {
+    let min_share = match opts.get("min_agreement") {
+        Some(v) => (number("min_agreement", v, what)? as f32).clamp(0.0, 1.0),
+        None => MIN_AGREEMENT,
+    };
+    let Some(v) = opts.get("agreement") else { return Ok(Agreement { mask: vec![], min_share }) };
+    let t = v
+        .clone()
+        .try_cast::<Tensor>()
+        .ok_or_else(|| Error::Invalid(format!("{what}: 'agreement' is a mask (geometry_agreement(s, obs))")))?;
+    let img = t.value();
+    let (w, h) = (scene.0.camera.width as usize, scene.0.camera.height as usize);
+    if (img.width, img.height, img.channels) != (w, h, 1) {
+        return Err(Error::Invalid(format!(
+            "{what}: 'agreement' is {}x{}x{}, the scene's camera renders {w}x{h} (one channel)",
+            img.width, img.height, img.channels
+        )));
+    }
+    Ok(Agreement { mask: img.data.clone(), min_share })
 }
 
 /// The masks of an options map's `segments` (material name -> mask, as `material_segments` gives), none without.
@@ -70,7 +102,8 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
     let mut o = LightFitOptions::default();
     let segments = surface_masks("fit_lights", scene, photo, opts)?;
     o.white = flag("fit_lights", opts, "white")?;
-    for (k, v) in opts.iter().filter(|(k, _)| !["segments", "white"].contains(&k.as_str())) {
+    o.agreement = agreement("fit_lights", scene, opts)?;
+    for (k, v) in opts.iter().filter(|(k, _)| !SHARED_KEYS.contains(&k.as_str())) {
         let n = number(k, v, "fit_lights")?;
         match k.as_str() {
             "downsample" => o.downsample = n.max(1.0) as usize,
@@ -82,7 +115,7 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
             other => {
                 return Err(Error::Invalid(format!(
                     "fit_lights: unknown option '{other}' (downsample, spp, max_depth, removal_threshold, seed, \
-                     tint_prior, segments, white)"
+                     tint_prior, segments, white, agreement, min_agreement)"
                 )))
             }
         }
@@ -127,6 +160,7 @@ fn window_skies(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Ma
     let mut o = WindowSkyOptions::default();
     let segments = surface_masks(WHAT, scene, photo, opts)?;
     o.fit.white = flag(WHAT, opts, "white")?;
+    o.fit.agreement = agreement(WHAT, scene, opts)?;
     let mut windows: Vec<String> = scene
         .0
         .objects
@@ -134,7 +168,7 @@ fn window_skies(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Ma
         .filter(|x| x.emitter.is_some() && crate::stages::is_visible_window(&x.name))
         .map(|x| x.name.clone())
         .collect();
-    for (k, v) in opts.iter().filter(|(k, _)| !["segments", "white"].contains(&k.as_str())) {
+    for (k, v) in opts.iter().filter(|(k, _)| !SHARED_KEYS.contains(&k.as_str())) {
         if k.as_str() == "windows" {
             let list = v.clone().into_typed_array::<rhai::ImmutableString>();
             let list = list.map_err(|_| Error::Invalid(format!("{WHAT}: windows must be an array of names")))?;
@@ -152,7 +186,7 @@ fn window_skies(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Ma
             other => {
                 return Err(Error::Invalid(format!(
                     "{WHAT}: unknown option '{other}' (downsample, spp, max_depth, seed, tint_prior, min_gain, \
-                     windows, segments, white)"
+                     windows, segments, white, agreement, min_agreement)"
                 )))
             }
         }
@@ -235,7 +269,8 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
     let mut o = LightPlacementOptions::default();
     let segments = surface_masks("place_lights", scene, photo, opts)?;
     o.render.white = flag("place_lights", opts, "white")?;
-    for (k, v) in opts.iter().filter(|(k, _)| !["segments", "white"].contains(&k.as_str())) {
+    o.render.agreement = agreement("place_lights", scene, opts)?;
+    for (k, v) in opts.iter().filter(|(k, _)| !SHARED_KEYS.contains(&k.as_str())) {
         let n = number(k, v, "place_lights")?;
         match k.as_str() {
             "step" => o.step = n as f32,
@@ -251,7 +286,7 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
             other => {
                 return Err(Error::Invalid(format!(
                     "place_lights: unknown option '{other}' (step, min_step, size_factor, merge, edge_max_side, \
-                     min_size, max_size, spp, downsample, tint_prior, segments, white)"
+                     min_size, max_size, spp, downsample, tint_prior, segments, white, agreement, min_agreement)"
                 )))
             }
         }
@@ -282,9 +317,10 @@ fn ceiling_height(run: &RunRef, scene: &mut SceneHandle, obs: &ObsHandle, opts: 
     check_photo(WHAT, &scene.0, photo.value())?;
     let mut o = CeilingSearchOptions::default();
     o.fit.white = flag(WHAT, opts, "white")?;
+    o.fit.agreement = agreement(WHAT, scene, opts)?;
     let segments = surface_masks(WHAT, scene, &photo, opts)?;
     let mut min_pixels = 30usize;
-    for (k, v) in opts.iter().filter(|(k, _)| !["segments", "white"].contains(&k.as_str())) {
+    for (k, v) in opts.iter().filter(|(k, _)| !SHARED_KEYS.contains(&k.as_str())) {
         let n = number(k, v, WHAT)?;
         match k.as_str() {
             "margin" => o.margin = n as f32,
@@ -301,7 +337,7 @@ fn ceiling_height(run: &RunRef, scene: &mut SceneHandle, obs: &ObsHandle, opts: 
             other => {
                 return Err(Error::Invalid(format!(
                     "{WHAT}: unknown option '{other}' (margin, step, span, max_span, tolerance, cell, spp, downsample, \
-                     seed, max_depth, min_pixels, segments, white)"
+                     seed, max_depth, min_pixels, segments, white, agreement, min_agreement)"
                 )))
             }
         }

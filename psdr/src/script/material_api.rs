@@ -1,5 +1,6 @@
 //! Materials in scripts: `material_segments(s, obs, #{min_pixels})` maps each material the photo shows to its
-//! mask (`stages::material_segments`).
+//! mask (`stages::material_segments`); `geometry_agreement(s, obs)` is the mask of the pixels where the fitted
+//! scene shows what the segmentation says (the fits' `agreement` option).
 //! Albedos from shading (`stages::albedo_division`): `divide_albedos(s, photo, segments, #{rounds,
 //! spp, tolerance, direct_spp})` and `light_scale_search(s, photo, segments, #{range, steps, rounds, spp, tolerance, direct_spp, downsample,
 //! per_channel, channel_min_gain, extend, resolution, ...})`, where
@@ -25,8 +26,9 @@ use super::vision_api::ObsHandle;
 use crate::error::Error;
 use crate::loss::{Image, Tensor};
 use crate::stages::{
-    apply_object_pictures, divide_albedos, library_textures, material_segments, search_light_scale, texture_surfaces,
-    Division, LightFitOptions, LightScaleOptions, ObjectPictureOptions, Segment, SurfaceTextureOptions,
+    agreeing_blocks, apply_object_pictures, divide_albedos, geometry_agreement, library_textures, material_segments,
+    search_light_scale, texture_surfaces, Division, LightFitOptions, LightScaleOptions, ObjectPictureOptions, Segment,
+    SurfaceTextureOptions,
 };
 use rhai::{Dynamic, Engine, Map};
 
@@ -91,6 +93,7 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             "split_rounds" => o.split_rounds = option_number(what, k, v)?.max(0.0) as usize,
             "split_downsample" => split.downsample = option_number(what, k, v)?.max(1.0) as usize,
             "tint_prior" => split.tint_prior = option_number(what, k, v)?.max(0.0) as f32,
+            "agreement" | "min_agreement" => {} // read below
             "range" => {
                 let r =
                     v.clone().into_array().map_err(|_| Error::Invalid(format!("{what}: 'range' is [low, high]")))?;
@@ -119,11 +122,14 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
             other => {
                 return Err(Error::Invalid(format!(
                     "{what}: unknown option '{other}' (range, steps, rounds, spp, tolerance, direct_spp, \
-                     downsample, per_channel, channel_min_gain, extend, resolution, bounce_spp, bounce_step, bounce_passes, bounce_l1, split_spp, split_rounds, split_downsample, tint_prior)"
+                     downsample, per_channel, channel_min_gain, extend, resolution, bounce_spp, bounce_step, bounce_passes, bounce_l1, split_spp, split_rounds, split_downsample, tint_prior, agreement, min_agreement)"
                 )))
             }
         }
     }
+    let agreement = super::light_api::agreement("light_scale_search", scene, opts)?;
+    o.agreement = agreement.mask.clone();
+    split.agreement = agreement;
     if split_spp > 0 {
         split.spp = split_spp;
         o.split = Some(split);
@@ -265,9 +271,37 @@ fn segments_of(scene: &SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Resul
     Ok(out)
 }
 
+/// `geometry_agreement(s, obs, #{block, min_share})`: per photo pixel 1 where the scene's primary hit is what
+/// the segmentation says the photo shows there, 0 where not (`stages::geometry_agreement`), a mask of the
+/// camera's size; with `block` > 1, whole blocks of that side, 1 where at least `min_share` (default 0.75) of
+/// a block's pixels agree (`stages::agreeing_blocks`).
+fn agreement_of(scene: &SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Result<Tensor> {
+    const WHAT: &str = "geometry_agreement";
+    let (mut block, mut min_share) = (1usize, 0.75f32);
+    for (k, v) in opts {
+        match k.as_str() {
+            "block" => block = option_number(WHAT, k, v)?.max(1.0) as usize,
+            "min_share" => min_share = option_number(WHAT, k, v)?.clamp(0.0, 1.0) as f32,
+            other => return Err(Error::Invalid(format!("{WHAT}: unknown option '{other}' (block, min_share)"))),
+        }
+    }
+    let inst = obs.0.require_instances()?;
+    let mut mask = geometry_agreement(&scene.0, inst)?;
+    if block > 1 {
+        mask = agreeing_blocks(&mask, inst.width, inst.height, block, min_share);
+    }
+    Ok(Tensor::constant(Image::new(inst.width, inst.height, 1, mask)?))
+}
+
 pub fn register(engine: &mut Engine, run: &RunRef) {
     engine.register_fn("material_segments", |s: &mut SceneHandle, obs: ObsHandle, opts: Map| -> Rr<Map> {
         segments_of(s, &obs, &opts).map_err(rhai_err)
+    });
+    engine.register_fn("geometry_agreement", |s: &mut SceneHandle, obs: ObsHandle| -> Rr<Tensor> {
+        agreement_of(s, &obs, &Map::new()).map_err(rhai_err)
+    });
+    engine.register_fn("geometry_agreement", |s: &mut SceneHandle, obs: ObsHandle, opts: Map| -> Rr<Tensor> {
+        agreement_of(s, &obs, &opts).map_err(rhai_err)
     });
     let r = run.clone();
     engine.register_fn(

@@ -18,13 +18,13 @@ pub use lights::{
     is_visible_window,
 };
 pub use lights::{fit_light_outlines, LightOutline};
-pub use lights::{fit_lights, nnls, LightFit, LightFitOptions};
+pub use lights::{fit_lights, nnls, Agreement, LightFit, LightFitOptions};
 pub use lights::{fit_window_skies, WindowSky, WindowSkyOptions};
 pub use lights::{init_lights, LightInitOptions};
 pub use lights::{light_motion, LightMotion};
 pub use lights::{refine_light_placement, LightPlacement, LightPlacementOptions};
 pub use lights::{search_ceiling_height, CeilingSearch, CeilingSearchOptions};
-pub use materials::material_segments;
+pub use materials::{agreeing_blocks, geometry_agreement, material_segments};
 pub use materials::{apply_object_pictures, ObjectPicture, ObjectPictureOptions};
 pub use materials::{
     contrast, library_textures, search_materials, search_materials_on, search_materials_with, transformed_view,

@@ -33,6 +33,17 @@ pub struct LightFitOptions {
     /// With coloured lights, how strongly each light's colour is held to the photo's white balance
     /// (`FitTarget::tint_prior`; 0: free).
     pub tint_prior: f32,
+    /// Where the fitted geometry and the segmentation disagree (`FitTarget::with_agreement`).
+    pub agreement: Agreement,
+}
+
+/// Per photo pixel, 1 where the fitted scene shows what the segmentation says the photo shows, 0 where it does
+/// not (`stages::geometry_agreement`; empty: everywhere), and the share of a compared block's pixels that must
+/// agree for the block to be fitted.
+#[derive(Clone, Debug, Default)]
+pub struct Agreement {
+    pub mask: Vec<f32>,
+    pub min_share: f32,
 }
 
 impl Default for LightFitOptions {
@@ -45,6 +56,7 @@ impl Default for LightFitOptions {
             seed: 0,
             white: false,
             tint_prior: 0.0,
+            agreement: Agreement::default(),
         }
     }
 }
@@ -85,6 +97,9 @@ pub(crate) fn downsample(data: &[f32], w: usize, h: usize, k: usize) -> (Vec<f32
 pub(crate) struct FitTarget {
     pub values: Vec<f32>,
     pub weights: Vec<f32>,
+    /// Per reduced pixel, whether it is left out for the scene's geometry, not for clipping
+    /// (`with_agreement`): such a pixel neither counts nor bounds the fit from below.
+    pub disagrees: Vec<bool>,
     /// Per reduced pixel, the surface it shows (`with_segments`), or NO_SEGMENT.
     pub segment: Vec<u32>,
     pub segments: usize,
@@ -114,7 +129,38 @@ impl FitTarget {
             weights.iter_mut().for_each(|w| *w = 1.0);
         }
         let segment = vec![NO_SEGMENT; weights.len()];
-        FitTarget { values, weights, segment, segments: 0, white: false, largest: NO_SEGMENT, tint_prior: 0.0 }
+        let disagrees = vec![false; weights.len()];
+        FitTarget {
+            values,
+            weights,
+            disagrees,
+            segment,
+            segments: 0,
+            white: false,
+            largest: NO_SEGMENT,
+            tint_prior: 0.0,
+        }
+    }
+
+    /// The same target with the reduced pixels where under `agreement.min_share` of the photo pixels agree
+    /// with the fitted geometry left out: there the photo shows another surface than the renders (a retrieved
+    /// model lower than the photo's wall unit, the wall behind it rendered where the photo shows the unit), and
+    /// the lights and free albedos would be fitted to that. A few disagreeing pixels along every object's
+    /// outline (a pixel's misfit of the pose) are kept: held out of the fit they would take the blocks that
+    /// compare one surface's light with its neighbour's. No mask, or one of another size: unchanged.
+    pub(crate) fn with_agreement(mut self, agreement: &Agreement, w: usize, h: usize, k: usize) -> FitTarget {
+        if agreement.mask.len() != w * h {
+            return self;
+        }
+        let rgb: Vec<f32> = agreement.mask.iter().flat_map(|&v| [v.clamp(0.0, 1.0); 3]).collect();
+        let (share, _, _) = downsample(&rgb, w, h, k.max(1));
+        for (p, s) in share.chunks(3).enumerate() {
+            if s[0] < agreement.min_share {
+                self.weights[p] = 0.0;
+                self.disagrees[p] = true;
+            }
+        }
+        self
     }
 
     /// The same target fitted by coloured lights held to one colour: each light's radiance per channel is
@@ -399,7 +445,7 @@ pub(crate) fn nnls_fit(basis: &[Vec<f32>], target: &FitTarget, active: &[usize])
             err += (model(c, p) - b[q]).powi(2);
         }
         for c in g.iter().copied() {
-            for p in (0..target.weights.len()).filter(|&p| target.weights[p] == 0.0) {
+            for p in (0..target.weights.len()).filter(|&p| target.weights[p] == 0.0 && !target.disagrees[p]) {
                 err += (target.values[p * 3 + c] as f64 - model(c, p)).max(0.0).powi(2);
             }
         }
@@ -479,6 +525,7 @@ pub fn fit_lights(
         .collect::<Result<_>>()?;
     let target = FitTarget::new(photo, w, h, opts.downsample)
         .with_segments(segments, w, h, opts.downsample)
+        .with_agreement(&opts.agreement, w, h, opts.downsample)
         .white_lights(opts.white)
         .tint_prior(opts.tint_prior);
     let progress = crate::progress::activity(format!("unit renders of {} lights", index.len()), Some(index.len()));
@@ -629,6 +676,7 @@ mod tests {
         let target = FitTarget {
             values: vec![0.5; 3].into_iter().chain(vec![1.0; 3]).collect(),
             weights: vec![1.0, 0.0],
+            disagrees: vec![false; 2],
             segment: vec![NO_SEGMENT; 2],
             segments: 0,
             white: false,
@@ -644,5 +692,41 @@ mod tests {
         let dim = vec![1.0; 6];
         let (_, err) = nnls_fit(&[dim], &target, &[0]);
         assert!((err - 3.0 * 0.25).abs() < 1e-9, "{err}");
+    }
+
+    /// Four 8x8 blocks, two lights: the photo is light A at radiance 0.5, except that the fitted geometry is
+    /// wrong over the third block (the photo shows a bright object there, the render the wall behind it, which
+    /// only light B lights) and a few pixels of the fourth (an outline's misfit). Fitted everywhere, B takes a
+    /// share; with the disagreeing block left out the fit is exact and B is off. A disagreeing block neither
+    /// counts nor bounds the fit from below, as a clipped one would (its photo value here is white).
+    #[test]
+    fn blocks_where_the_geometry_disagrees_are_left_out() {
+        let (w, h, k) = (32, 8, 8);
+        let a = [1.0f32, 0.8, 0.1, 0.3];
+        let b = [0.0f32, 0.1, 0.9, 0.05];
+        let block = |v: &[f32; 4]| -> Vec<f32> { (0..w * h).flat_map(|p| [v[(p % w) / k]; 3]).collect() };
+        let (ua, ub) = (downsample(&block(&a), w, h, k).0, downsample(&block(&b), w, h, k).0);
+        let photo_with = |bright: f32| -> Vec<f32> {
+            (0..w * h).flat_map(|p| [if (p % w) / k == 2 { bright } else { a[(p % w) / k] * 0.5 }; 3]).collect()
+        };
+        let photo = photo_with(0.9);
+        // The third block disagrees everywhere, the fourth on its first column (an eighth of it).
+        let mask: Vec<f32> = (0..w * h).map(|p| if (p % w) / k == 2 || p % w == 24 { 0.0 } else { 1.0 }).collect();
+        let everywhere = FitTarget::new(&photo, w, h, k);
+        let (rad, _) = nnls_fit(&[ua.clone(), ub.clone()], &everywhere, &[0, 1]);
+        assert!(rad[1][0] > 0.3, "fitted where the geometry is wrong, B lights the wrong block: {rad:?}");
+        let agreement = Agreement { mask, min_share: 0.75 };
+        let target = FitTarget::new(&photo, w, h, k).with_agreement(&agreement, w, h, k);
+        assert_eq!(target.weights, [1.0, 1.0, 0.0, 1.0]);
+        assert_eq!(target.disagrees, [false, false, true, false]);
+        let (rad, err) = nnls_fit(&[ua.clone(), ub.clone()], &target, &[0, 1]);
+        assert!(err < 1e-10 && (rad[0][0] - 0.5).abs() < 1e-5 && rad[1][0] < 1e-6, "{rad:?} {err}");
+        // The same with that block clipped white: left out, it is no lower bound either.
+        let clipped = FitTarget::new(&photo_with(1.0), w, h, k).with_agreement(&agreement, w, h, k);
+        let (rad, err) = nnls_fit(&[ua, ub], &clipped, &[0, 1]);
+        assert!(err < 1e-10 && (rad[0][0] - 0.5).abs() < 1e-5 && rad[1][0] < 1e-6, "{rad:?} {err}");
+        // A mask of another size changes nothing.
+        let other = Agreement { mask: vec![0.0; 7], min_share: 0.75 };
+        assert_eq!(FitTarget::new(&photo, w, h, k).with_agreement(&other, w, h, k).weights, [1.0; 4]);
     }
 }

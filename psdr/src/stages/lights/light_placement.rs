@@ -142,6 +142,7 @@ pub fn refine_light_placement(
     let ro = &opts.render;
     let target = FitTarget::new(photo, w, h, ro.downsample)
         .with_segments(segments, w, h, ro.downsample)
+        .with_agreement(&ro.agreement, w, h, ro.downsample)
         .white_lights(ro.white)
         .tint_prior(ro.tint_prior);
     let norm = target.norm();

@@ -20,7 +20,7 @@ mod window_sky;
 pub use ceiling_panels::{add_visible_ceiling_lights, is_edge_ceiling_light, is_visible_ceiling_light};
 pub use ceiling_search::{search_ceiling_height, CeilingSearch, CeilingSearchOptions};
 pub use emitter_outline::{fit_light_outlines, LightOutline};
-pub use light_fit::{fit_lights, nnls, LightFit, LightFitOptions};
+pub use light_fit::{fit_lights, nnls, Agreement, LightFit, LightFitOptions};
 pub use light_init::{init_lights, LightInitOptions};
 pub use light_motion::{light_motion, LightMotion};
 pub use light_placement::{refine_light_placement, LightPlacement, LightPlacementOptions};

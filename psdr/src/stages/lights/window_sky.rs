@@ -84,8 +84,10 @@ pub fn fit_window_skies(
         return Ok(found);
     }
     let f = &opts.fit;
-    let target =
-        FitTarget::new(photo, w, h, f.downsample).with_segments(segments, w, h, f.downsample).white_lights(f.white);
+    let target = FitTarget::new(photo, w, h, f.downsample)
+        .with_segments(segments, w, h, f.downsample)
+        .with_agreement(&f.agreement, w, h, f.downsample)
+        .white_lights(f.white);
     let target = target.tint_prior(f.tint_prior);
     let rel = |err: f64| (err / target.norm()).sqrt() as f32;
     // Columns: every light as it is (a window's from its lobes: its unit render is linear in the shape, and the

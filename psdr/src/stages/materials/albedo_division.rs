@@ -296,6 +296,9 @@ pub struct LightScaleOptions {
     pub bounce_passes: usize,
     /// With `bounce_spp`, score by the mean absolute error over cells instead of the squared error.
     pub bounce_l1: bool,
+    /// Per photo pixel, 1 where the fitted geometry agrees with the segmentation (`geometry_agreement`), 0 where
+    /// it does not: the scores leave those pixels out, as they leave clipped ones (empty: every pixel agrees).
+    pub agreement: Vec<f32>,
 }
 
 impl Default for LightScaleOptions {
@@ -318,6 +321,7 @@ impl Default for LightScaleOptions {
             bounce_step: 1.02,
             bounce_passes: 3,
             bounce_l1: false,
+            agreement: vec![],
         }
     }
 }
@@ -643,7 +647,9 @@ pub fn search_light_scale(
         )));
     }
     let w = scene.camera.width as usize;
-    let recorded_rgb: Vec<f32> = crate::vision::unclipped(photo, w).iter().flat_map(|&u| [u; 3]).collect();
+    let agrees = |p: usize| if opts.agreement.len() == photo.len() / 3 { opts.agreement[p] } else { 1.0 };
+    let recorded_rgb: Vec<f32> =
+        crate::vision::unclipped(photo, w).iter().enumerate().flat_map(|(p, &u)| [u * agrees(p); 3]).collect();
     let scoring = ScaleScoring {
         lights: (0..scene.objects.len()).filter_map(|i| scene.objects[i].emitter.map(|e| (i, e.radiance))).collect(),
         photo,

@@ -17,13 +17,13 @@ use rayon::prelude::*;
 
 /// What the segmentation must say at a pixel for the object hit there to count.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Expect<'a> {
+pub(super) enum Expect<'a> {
     Class(&'a str),
     Instance(u16),
     Nothing,
 }
 
-fn expectation(name: &str) -> Expect<'_> {
+pub(super) fn expectation(name: &str) -> Expect<'_> {
     match name {
         "floor" => Expect::Class("floor"),
         "ceiling" => Expect::Class("ceiling"),
@@ -33,32 +33,51 @@ fn expectation(name: &str) -> Expect<'_> {
     }
 }
 
-/// Per material (scene order) with at least `min_pixels` pixels: its name and its mask (1 inside).
-pub fn material_segments(scene: &Scene, inst: &Instances, min_pixels: usize) -> Result<Vec<(String, Vec<f32>)>> {
+/// Per photo pixel, what the fitted scene's primary ray hits there: the object's index and the material's, or
+/// None where it leaves the scene.
+pub(super) fn primary_hits(scene: &Scene) -> Result<Vec<Option<(u32, u32)>>> {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    if (inst.width, inst.height) != (w, h) {
-        return Err(Error::Invalid(format!(
-            "material segments: the masks are {}x{}, the scene's camera renders {w}x{h}",
-            inst.width, inst.height
-        )));
-    }
     let d = SceneData::build(scene)?;
     let origin = Vec3::from(d.camera.origin);
-    let expect: Vec<Expect> = scene.objects.iter().map(|o| expectation(&o.name)).collect();
-    let class_of = |id: u16| inst.instances.iter().find(|i| i.id == id).map(|i| i.class.as_str());
-    // The material each pixel shows, where the segmentation agrees.
-    let shown: Vec<Option<u32>> = (0..w * h)
+    Ok((0..w * h)
         .into_par_iter()
         .map(|p| {
             let dir = camera_ray(&d.camera, (p % w) as f32 + 0.5, (p / w) as f32 + 0.5);
             let hit = trace_closest(&d.nodes, &d.triangles, origin, dir, f32::INFINITY)?;
             let tri = &d.triangles[hit.triangle as usize];
-            let agrees = match expect.get(tri.object as usize)? {
-                Expect::Class(c) => class_of(inst.ids[p]) == Some(c),
-                Expect::Instance(id) => inst.ids[p] == *id,
+            Some((tri.object, tri.material))
+        })
+        .collect())
+}
+
+pub(super) fn check_size(scene: &Scene, inst: &Instances, what: &str) -> Result<()> {
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    if (inst.width, inst.height) != (w, h) {
+        return Err(Error::Invalid(format!(
+            "{what}: the masks are {}x{}, the scene's camera renders {w}x{h}",
+            inst.width, inst.height
+        )));
+    }
+    Ok(())
+}
+
+/// Per material (scene order) with at least `min_pixels` pixels: its name and its mask (1 inside).
+pub fn material_segments(scene: &Scene, inst: &Instances, min_pixels: usize) -> Result<Vec<(String, Vec<f32>)>> {
+    check_size(scene, inst, "material segments")?;
+    let expect: Vec<Expect> = scene.objects.iter().map(|o| expectation(&o.name)).collect();
+    let class_of = |id: u16| inst.instances.iter().find(|i| i.id == id).map(|i| i.class.as_str());
+    // The material each pixel shows, where the segmentation agrees.
+    let shown: Vec<Option<u32>> = primary_hits(scene)?
+        .iter()
+        .zip(&inst.ids)
+        .map(|(hit, &id)| {
+            let (object, material) = (*hit)?;
+            let agrees = match expect.get(object as usize)? {
+                Expect::Class(c) => class_of(id) == Some(*c),
+                Expect::Instance(i) => id == *i,
                 Expect::Nothing => false,
             };
-            agrees.then_some(tri.material)
+            agrees.then_some(material)
         })
         .collect();
     let mut out = vec![];

@@ -1,4 +1,5 @@
-//! The material stage: which photo pixels show which material (`material_segments`), albedos divided out of
+//! The material stage: which photo pixels show which material (`material_segments`) and where the fitted scene is
+//! not the photo's (`geometry_agreement`), albedos divided out of
 //! the shading and the lights' common scale (`albedo_division`, or
 //! scored from renders kept by bounce count: `light_scale_bounces`), the procedural library searched on a crop
 //! (`material_search`, through `texture_view`) and fitted to it (`graph_fit`), and applied to the surfaces that
@@ -6,6 +7,7 @@
 //! its parts where they are closer to the photo than the fitted constant (`object_pictures`).
 
 mod albedo_division;
+mod geometry_agreement;
 mod graph_fit;
 mod light_scale_bounces;
 mod material_search;
@@ -18,6 +20,7 @@ mod texture_view;
 
 pub(crate) use albedo_division::ALBEDO_RANGE;
 pub use albedo_division::{divide_albedos, search_light_scale, Division, LightScale, LightScaleOptions, Segment};
+pub use geometry_agreement::{agreeing_blocks, geometry_agreement};
 pub use graph_fit::{fit_graph_to_crop, GraphFit, GraphFitOptions};
 pub use material_search::{
     contrast, library_textures, search_materials, search_materials_on, search_materials_with, transformed_view,
