@@ -37,10 +37,11 @@ fn flag(what: &str, opts: &Map, key: &str) -> crate::Result<bool> {
 /// fitted geometry agrees with the segmentation.
 const SHARED_KEYS: [&str; 4] = ["segments", "white", "agreement", "min_agreement"];
 
-/// Default share of a compared block's pixels that must agree with the fitted geometry (`Agreement`): the
-/// outlines' misfit of a pose stays in (real rooms with their own models: no block of the light fit under
-/// 0.75, 0-0.5 % under it in the others), a retrieved model that misses a quarter of a block leaves it out.
-const MIN_AGREEMENT: f32 = 0.75;
+/// Default share of a compared block's pixels that must agree with the fitted geometry (`Agreement`, and
+/// `geometry_agreement`'s blocks): the outlines' misfit of a well-placed pose stays in (real rooms with their
+/// own models: 0-3 % of the light fit's blocks under it), a retrieved model that misses a quarter of a block
+/// leaves it out (held out: 8-19 %). scripts/room.rhai names it `fit_min_agreement`.
+pub(super) const MIN_AGREEMENT: f32 = 0.75;
 
 /// An options map's `agreement` (a mask of the camera's size, `geometry_agreement`) and `min_agreement`;
 /// without a mask, every pixel agrees.

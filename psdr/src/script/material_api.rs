@@ -277,7 +277,7 @@ fn segments_of(scene: &SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Resul
 /// a block's pixels agree (`stages::agreeing_blocks`).
 fn agreement_of(scene: &SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Result<Tensor> {
     const WHAT: &str = "geometry_agreement";
-    let (mut block, mut min_share) = (1usize, 0.75f32);
+    let (mut block, mut min_share) = (1usize, super::light_api::MIN_AGREEMENT);
     for (k, v) in opts {
         match k.as_str() {
             "block" => block = option_number(WHAT, k, v)?.max(1.0) as usize,

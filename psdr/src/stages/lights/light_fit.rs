@@ -145,9 +145,8 @@ impl FitTarget {
     /// The same target with the reduced pixels where under `agreement.min_share` of the photo pixels agree
     /// with the fitted geometry left out: there the photo shows another surface than the renders (a retrieved
     /// model lower than the photo's wall unit, the wall behind it rendered where the photo shows the unit), and
-    /// the lights and free albedos would be fitted to that. A few disagreeing pixels along every object's
-    /// outline (a pixel's misfit of the pose) are kept: held out of the fit they would take the blocks that
-    /// compare one surface's light with its neighbour's. No mask, or one of another size: unchanged.
+    /// the lights and free albedos would be fitted to that. A few disagreeing pixels along an object's outline
+    /// (a pixel's misfit of the pose) leave their block in. No mask, or one of another size: unchanged.
     pub(crate) fn with_agreement(mut self, agreement: &Agreement, w: usize, h: usize, k: usize) -> FitTarget {
         if agreement.mask.len() != w * h {
             return self;
