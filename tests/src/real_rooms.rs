@@ -969,11 +969,36 @@ pub fn held_out_db(db_dir: &Path, held_out: &[PathBuf], out: &Path) -> psdr::Res
     Ok(dropped)
 }
 
+/// What an attribution start (`known_start`) keeps of the truth beside its room and furniture.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Known {
+    /// Every material grey, no lights: the pipeline fits lights and materials.
+    Geometry,
+    /// The true materials, no lights: the pipeline fits the lights (with `fit_materials=false`).
+    Materials,
+    /// Every material grey, the true emitters where they are at unit radiance: radiances and materials fitted.
+    Lights,
+}
+
+impl Known {
+    pub const ALL: [Known; 3] = [Known::Geometry, Known::Materials, Known::Lights];
+
+    /// The bench mode and start file name.
+    pub fn mode(self) -> &'static str {
+        match self {
+            Known::Geometry => "known_geometry",
+            Known::Materials => "known_materials",
+            Known::Lights => "known_lights",
+        }
+    }
+}
+
 /// The truth's geometry as `--set geometry=FILE` takes it (the error attribution of bench_real_rooms): the walls
 /// renamed as the room stage names them (wall_x0/x1 on the left and right, wall_z0/z1 behind and in front of the
-/// view), the room surfaces' materials `floor`, `wall` and `ceiling`, every material grey (0.5, homogeneous);
-/// with `lights`, the truth's emitters where they are at unit radiance, else none (the pipeline places its own).
-pub fn known_start(truth: &Scene, lights: bool) -> Scene {
+/// view). `Known::Materials` keeps the true materials and drops the emitters; otherwise the room surfaces'
+/// materials are `floor`, `wall` and `ceiling`, every material grey (0.5, homogeneous), and with
+/// `Known::Lights` the truth's emitters stay where they are at unit radiance (else the pipeline places its own).
+pub fn known_start(truth: &Scene, known: Known) -> Scene {
     let mut s = truth.clone();
     let rename =
         [("wall_left", "wall_x0"), ("wall_right", "wall_x1"), ("wall_back", "wall_z0"), ("wall_front", "wall_z1")];
@@ -982,13 +1007,16 @@ pub fn known_start(truth: &Scene, lights: bool) -> Scene {
             o.name = to.to_string();
         }
     }
-    if !lights {
+    if known != Known::Lights {
         s.objects.retain(|o| o.emitter.is_none());
     }
     for o in s.objects.iter_mut() {
         if let Some(e) = o.emitter.as_mut() {
             e.radiance = Vec3::ONE;
         }
+    }
+    if known == Known::Materials {
+        return s;
     }
     // Grey homogeneous materials, the room's under the names the material stage gives them.
     let mut materials: Vec<Material> = vec![];

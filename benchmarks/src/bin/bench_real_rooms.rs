@@ -28,7 +28,7 @@ use psdr::backend::CpuBackend;
 use psdr::report::chart::{grid, Line, Point, Series, XyChart};
 use psdr::script::{run_script, RunOptions, ScriptRun};
 use psdr_tests::real_rooms::{
-    generate_rooms, held_out_db, known_start, read_models, write_room, RealRoom, PHOTO_MAX_DEPTH,
+    generate_rooms, held_out_db, known_start, read_models, write_room, Known, RealRoom, PHOTO_MAX_DEPTH,
 };
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -41,9 +41,10 @@ const PHOTO_SPP: u32 = 128;
 const MODES: [&str; 2] = ["default", "held_out"];
 /// Where the image error comes from (`BENCH_REAL_ROOMS_MODES`): `truth` is the true scene rendered as the
 /// evaluation renders the fitted one (the floor any fit reaches); `known_geometry` runs the pipeline on the
-/// truth's room and furniture (grey, no lights: lights and materials fitted); `known_lights` adds the truth's
-/// lights where they are (radiances and materials fitted).
-const ATTRIBUTION: [&str; 3] = ["truth", "known_geometry", "known_lights"];
+/// truth's room and furniture (grey, no lights: lights and materials fitted); `known_materials` keeps the truth's
+/// materials on them (`fit_materials=false`: the lights fitted); `known_lights` has the truth's lights where
+/// they are on the grey start (radiances and materials fitted).
+const ATTRIBUTION: [&str; 4] = ["truth", "known_geometry", "known_materials", "known_lights"];
 /// Presets (`BENCH_REAL_ROOMS_MODES=fast,thorough`): the default database and the script's defaults with
 /// these overrides, for the chart of image error against total time (`default` is the script as it is).
 /// fast: fewer iterations and samples everywhere (the light scale from its first grid); thorough: more of both
@@ -168,15 +169,22 @@ fn rooms(dir: &Path, db: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The starts of the attribution modes beside a room's truth: `known_geometry.json` (the true room and furniture,
-/// grey, no lights) and `known_lights.json` (the same with the true emitters at unit radiance), for
-/// `psdr run scripts/room.rhai ROOM/photo.png --set geometry=ROOM/known_geometry.json` by hand as well.
+/// The starts of the attribution modes beside a room's truth, each in a folder of its own with its meshes and
+/// textures (`save_scene` numbers them from 0: beside truth.json they would overwrite the truth's):
+/// `known_geometry/scene.json` (the true room and furniture, grey, no lights), `known_materials/scene.json` (the
+/// same with the true materials) and `known_lights/scene.json` (grey, with the true emitters at unit radiance),
+/// for `psdr run scripts/room.rhai ROOM/photo.png --set geometry=ROOM/known_geometry/scene.json` by hand as well.
 fn write_known_starts(room_dir: &Path) -> psdr::Result<()> {
     let truth = psdr::scene::load_scene(&room_dir.join("truth.json"))?;
-    for (mode, lights) in [("known_geometry", false), ("known_lights", true)] {
-        psdr::scene::save_scene(&known_start(&truth, lights), &room_dir.join(format!("{mode}.json")))?;
+    for known in Known::ALL {
+        psdr::scene::save_scene(&known_start(&truth, known), &known_start_file(room_dir, known))?;
     }
     Ok(())
+}
+
+/// Where `write_known_starts` puts a mode's start.
+fn known_start_file(room_dir: &Path, known: Known) -> PathBuf {
+    room_dir.join(known.mode()).join("scene.json")
 }
 
 /// The true scene rendered as the evaluation renders a fitted one, against the photo: the CSV row of mode
@@ -287,11 +295,14 @@ fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) 
     let mut all_sets: Vec<String> = preset_sets(mode).iter().map(|s| s.to_string()).collect();
     all_sets.extend_from_slice(sets);
     all_sets.push(format!("truth={}", room_dir.join("truth.json").display()));
-    if mode == "known_geometry" || mode == "known_lights" {
+    if let Some(known) = Known::ALL.into_iter().find(|k| k.mode() == mode) {
         if let Err(e) = write_known_starts(room_dir) {
             return crashed(format!("{mode} start: {e}"));
         }
-        all_sets.push(format!("geometry={}", room_dir.join(format!("{mode}.json")).display()));
+        all_sets.push(format!("geometry={}", known_start_file(room_dir, known).display()));
+        if known == Known::Materials {
+            all_sets.push("fit_materials=false".into());
+        }
     }
     // A panic inside psdr is a crash of this pair, not of the benchmark.
     let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
