@@ -48,6 +48,38 @@ pub(super) fn light_pixels(photo: &[f32]) -> Vec<bool> {
     lum.iter().map(|l| median > 0.0 && *l >= 20.0 * median).collect()
 }
 
+/// Whether an 8-bit photo's pixel is white in every channel: an emitter brighter than white clips all three
+/// over its whole area, its edges too.
+fn fully_clipped(c: &[f32]) -> bool {
+    c.iter().all(|v| *v >= CLIPPED_LINEAR)
+}
+
+/// The pixels of `patch` (light-source pixels, `light_pixels`) that say where the light is: in an 8-bit photo
+/// the largest 4-connected run of its pixels white in every channel, where that is at least half of them (a
+/// tinted light may clip one channel only); else all of them.
+/// A ceiling lit near white beside a light clips one channel and, in scattered pixels, all three: joined to
+/// the light's patch it stretched the panel over it (real room00: a 0.79 m panel fitted 1.56 x 1.30 m, at a
+/// third of its radiance, with the true materials given).
+fn light_core(patch: &[usize], photo: &[f32], width: usize, ldr: bool) -> Vec<usize> {
+    if !ldr {
+        return patch.to_vec();
+    }
+    let mut white = vec![false; photo.len() / 3];
+    for &p in patch {
+        white[p] = fully_clipped(&photo[3 * p..3 * p + 3]);
+    }
+    let core = connected_regions(&white, width)
+        .into_iter()
+        .filter(|r| white[r[0]])
+        .max_by_key(|r| r.len())
+        .unwrap_or_default();
+    if core.len() >= 4 && 2 * core.len() >= patch.len() {
+        core
+    } else {
+        patch.to_vec()
+    }
+}
+
 /// How far (pixels) the photo may move a ceiling light's edges from its pixels' range.
 const OUTLINE_MARGIN: f32 = 4.0;
 
@@ -109,8 +141,11 @@ pub fn add_visible_ceiling_lights(
     let inside = |p: usize| (1..w - 1).contains(&(p % w)) && (1..h - 1).contains(&(p / w));
     let patches: Vec<(bool, Vec<Vec3>)> = connected_regions(&on, w)
         .into_iter()
-        .filter(|r| on[r[0]])
-        .map(|r| (r.iter().all(|&p| inside(p)), r.iter().filter_map(|&p| on_ceiling[p]).collect()))
+        .filter(|r| on[r[0]] && r.len() >= min_pixels.max(4))
+        .map(|r| {
+            let core = light_core(&r, photo, w, ldr);
+            (r.iter().all(|&p| inside(p)), core.iter().filter_map(|&p| on_ceiling[p]).collect())
+        })
         .collect();
     let material = scene.material_index("light").unwrap_or_else(|| {
         scene.materials.push(Material::diffuse("light", Vec3::splat(0.8)));
@@ -118,7 +153,7 @@ pub fn add_visible_ceiling_lights(
     });
     let mut names = vec![];
     let (mut panels, mut edges) = (0, 0);
-    for (in_view, points) in patches.into_iter().filter(|p| p.1.len() >= min_pixels.max(4)) {
+    for (in_view, points) in patches {
         // First the 2-98 % range of the pixels' points, not widened as for windows: a light's edge pixels clip
         // too (a tenth of its radiance is already white), so the patch reaches past the light by up to a
         // pixel's footprint, which at a grazing view of the ceiling is several centimetres (the full range made
