@@ -239,16 +239,80 @@ fn a_visible_window_becomes_a_light_on_its_wall() {
     assert_eq!(names, ["light_window_1"]);
     let off = edges_off(&fitted);
     assert!(off[..3].iter().all(|e| *e < 0.02) && off[3] < 0.05, "edges off {off:?} m");
-    let w = fitted.objects.iter().find(|o| o.name == names[0]).unwrap();
-    // The light placement leaves it there. In an 8-bit photo the window's pixels are clipped, so the fit leaves
-    // them out, and the photo's ceiling light is missing from the fitted scene: a window free to move and grow
-    // would go some way to light what the ceiling light lit (it moved 22 cm before windows were held).
-    let pose = w.pose;
+    // The light placement leaves its part in view where it is. In an 8-bit photo the window's pixels are
+    // clipped, so the fit leaves them out, and the photo's ceiling light is missing from the fitted scene: a
+    // window free to move and grow would go some way to light what the ceiling light lit (it moved 22 cm
+    // before windows were held). The frame cuts its near side, so that side may grow out of view (here it
+    // does, for the missing light: `a_window_the_frame_cuts_grows_out_of_view`); the other three stay.
+    let before = edges_off(&fitted);
     let opts = psdr::stages::LightPlacementOptions::default();
     let placed = psdr::stages::refine_light_placement(&mut CpuBackend, &mut fitted, &photo, &[], &opts).unwrap();
     eprintln!("{placed:?}");
-    let w = fitted.objects.iter().find(|o| o.name == names[0]).unwrap();
-    assert_eq!((w.pose.translation, w.pose.scale), (pose.translation, pose.scale), "{placed:?}");
+    let after = edges_off(&fitted);
+    assert!((0..3).all(|k| (after[k] - before[k]).abs() < 0.01), "edges off {before:?} -> {after:?} m");
+}
+
+/// A window the frame cuts lights the room through all of itself, not only through its part in view: the test
+/// room lit by a 1.2 x 1.0 m window in its left wall alone, the window's near half out of view. Held to its part
+/// in view it had to be far brighter to light the room, and lit the wall beside it instead of the far ones
+/// (real room06: 0.24 x 0.61 m for 1.2 x 1.0, the image error 14.2 % where the true scene's is 1.4 %). The
+/// placement grows it out of view to within 15 cm of its size, its part in view still on the photo's window
+/// pixels (its far edge within 3 cm), and the fit's error falls by half at least; without the change the window
+/// stayed its part in view.
+#[test]
+fn a_window_the_frame_cuts_grows_out_of_view() {
+    use glam::Quat;
+    use psdr::scene::{rectangle_mesh, Object, Pose};
+    use psdr::stages::{add_visible_windows, refine_light_placement, LightPlacementOptions};
+    use psdr::vision::{canonical_class, Instance, Instances};
+    let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.8, 1.5, 2.6), yaw: 15.0, pitch: -8.0, fov: 60.0 };
+    let (mut room, _) = room_scene(&r, &[], false, 128, 96);
+    room.objects.retain(|o| o.emitter.is_none());
+    let mut pane = rectangle_mesh(1.2, 1.0);
+    pane.material = 0;
+    let at = Vec3::new(-2.49, 1.4, 0.3);
+    room.objects.push(Object {
+        name: "window".into(),
+        parts: vec![pane],
+        pose: Pose { translation: at, rotation: Quat::from_rotation_y(std::f32::consts::FRAC_PI_2), scale: Vec3::ONE },
+        emitter: Some(Emitter::uniform(Vec3::splat(5.0), false)),
+    });
+    room.settings.spp = 256;
+    let f = render_cpu(&SceneData::build(&room).unwrap(), &room.settings, &|_, _| {});
+    let o = room.object_index("window").unwrap() as u32;
+    let ids: Vec<u16> = f.object_id.iter().map(|&i| u16::from(i == o)).collect();
+    let pixels = ids.iter().filter(|&&v| v == 1).count();
+    let (class, kind) = canonical_class("window");
+    let window_pixels: Vec<bool> = ids.iter().map(|&v| v == 1).collect();
+    let inst = Instances {
+        width: 128,
+        height: 96,
+        ids,
+        instances: vec![Instance { id: 1, label: Some("window".into()), class: class.into(), kind, pixels }],
+    };
+    let photo: Vec<f32> = f.radiance.iter().map(|v| v.min(1.0)).collect();
+    let mut fitted = room.clone();
+    fitted.objects.retain(|o| o.emitter.is_none());
+    let names = add_visible_windows(&mut fitted, Some(&photo), &f.depth, &inst, 20);
+    assert_eq!(names, ["light_window_1"]);
+    let extent = |s: &psdr::scene::Scene| {
+        let w = s.objects.iter().find(|o| o.name == names[0]).unwrap();
+        w.parts[0]
+            .positions
+            .iter()
+            .map(|p| w.pose.matrix().transform_point3(*p))
+            .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(p), b.max(p)))
+    };
+    let (lo, hi) = extent(&fitted);
+    eprintln!("{pixels} window pixels; in view {lo} .. {hi}");
+    assert!(hi.z - lo.z < 0.8, "the frame cuts the window: {lo} .. {hi}");
+    let opts = LightPlacementOptions { window_pixels, ..Default::default() };
+    let placed = refine_light_placement(&mut CpuBackend, &mut fitted, &photo, &[], &opts).unwrap();
+    let (lo2, hi2) = extent(&fitted);
+    eprintln!("{placed:?}\nplaced {lo2} .. {hi2}");
+    assert!(((hi2.z - lo2.z) - 1.2).abs() < 0.15 && ((hi2.y - lo2.y) - 1.0).abs() < 0.15, "size {}", hi2 - lo2);
+    assert!((lo2.z - (at.z - 0.6)).abs() < 0.03, "far edge {} for {}", lo2.z, at.z - 0.6);
+    assert!(placed.relative_rms_after < 0.5 * placed.relative_rms_before, "{placed:?}");
 }
 
 /// Lights off their place (`refine_light_placement`): the two lights of the known-geometry room started 30-43

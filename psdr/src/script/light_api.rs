@@ -50,20 +50,24 @@ pub(super) fn agreement(what: &str, scene: &SceneHandle, opts: &Map) -> crate::R
         Some(v) => (number("min_agreement", v, what)? as f32).clamp(0.0, 1.0),
         None => MIN_AGREEMENT,
     };
-    let Some(v) = opts.get("agreement") else { return Ok(Agreement { mask: vec![], min_share }) };
-    let t = v
-        .clone()
-        .try_cast::<Tensor>()
-        .ok_or_else(|| Error::Invalid(format!("{what}: 'agreement' is a mask (geometry_agreement(s, obs))")))?;
+    let mask = mask_option(what, scene, opts, "agreement", "geometry_agreement(s, obs)")?;
+    Ok(Agreement { mask: mask.unwrap_or_default(), min_share })
+}
+
+/// An options map's mask `key` (one channel, the camera's size; `from` says where one comes from), if given.
+fn mask_option(what: &str, scene: &SceneHandle, opts: &Map, key: &str, from: &str) -> crate::Result<Option<Vec<f32>>> {
+    let Some(v) = opts.get(key) else { return Ok(None) };
+    let t =
+        v.clone().try_cast::<Tensor>().ok_or_else(|| Error::Invalid(format!("{what}: '{key}' is a mask ({from})")))?;
     let img = t.value();
     let (w, h) = (scene.0.camera.width as usize, scene.0.camera.height as usize);
     if (img.width, img.height, img.channels) != (w, h, 1) {
         return Err(Error::Invalid(format!(
-            "{what}: 'agreement' is {}x{}x{}, the scene's camera renders {w}x{h} (one channel)",
+            "{what}: '{key}' is {}x{}x{}, the scene's camera renders {w}x{h} (one channel)",
             img.width, img.height, img.channels
         )));
     }
-    Ok(Agreement { mask: img.data.clone(), min_share })
+    Ok(Some(img.data.clone()))
 }
 
 /// The masks of an options map's `segments` (material name -> mask, as `material_segments` gives), none without.
@@ -271,7 +275,9 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
     let segments = surface_masks("place_lights", scene, photo, opts)?;
     o.render.white = flag("place_lights", opts, "white")?;
     o.render.agreement = agreement("place_lights", scene, opts)?;
-    for (k, v) in opts.iter().filter(|(k, _)| !SHARED_KEYS.contains(&k.as_str())) {
+    let windows = mask_option("place_lights", scene, opts, "windows", "obs.class_mask(\"window\")")?;
+    o.window_pixels = windows.unwrap_or_default().iter().map(|v| *v > 0.5).collect();
+    for (k, v) in opts.iter().filter(|(k, _)| !SHARED_KEYS.contains(&k.as_str()) && k.as_str() != "windows") {
         let n = number(k, v, "place_lights")?;
         match k.as_str() {
             "step" => o.step = n as f32,
@@ -279,6 +285,7 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
             "size_factor" => o.size_factor = n as f32,
             "merge" => o.merge_threshold = n.max(0.0) as f32,
             "edge_max_side" => o.edge_max_side = n.max(0.05) as f32,
+            "window_max_side" => o.window_max_side = n.max(0.05) as f32,
             "min_size" => o.size_range.0 = n as f32,
             "max_size" => o.size_range.1 = n as f32,
             "spp" => o.render.spp = n.max(1.0) as u32,
@@ -287,7 +294,8 @@ fn place(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> c
             other => {
                 return Err(Error::Invalid(format!(
                     "place_lights: unknown option '{other}' (step, min_step, size_factor, merge, edge_max_side, \
-                     min_size, max_size, spp, downsample, tint_prior, segments, white, agreement, min_agreement)"
+                     window_max_side, windows, min_size, max_size, spp, downsample, tint_prior, segments, white, \
+                     agreement, min_agreement)"
                 )))
             }
         }

@@ -11,12 +11,15 @@
 //! (real room01's moved 10 cm up, its render a band of white over the wall above it). A ceiling light the frame
 //! cuts (`is_edge_ceiling_light`) moves only out of view: besides the moves above, each of its sides may move
 //! out or in by the step, and a move is kept only where its part in view still covers the photo's light pixels
-//! and no others (`light_view`).
+//! and no others (`light_view`). A window the photo shows that the frame cuts moves so too, its part in view
+//! kept on the pixels it covered: it lights the room through all of itself, and held to the sliver in view
+//! (real room06's 1.2 x 1.0 m window as 0.24 x 0.61 m at three times its radiance, with the true materials
+//! given) it lit the wall beside it and left the far walls dark.
 
 use super::ceiling_panels::light_pixels;
 use super::light_fit::{nnls_fit, unit_render, unit_renders, FitTarget, LightFitOptions};
 use super::light_view::{keeps_view, local_bounds, pixels_covered};
-use super::{is_edge_ceiling_light, is_visible_light};
+use super::{is_edge_ceiling_light, is_visible_light, is_visible_window};
 use crate::backend::Backend;
 use crate::error::{Error, Result};
 use crate::render::scene_data::luminance;
@@ -48,8 +51,12 @@ pub struct LightPlacementOptions {
     /// fit's relative error by less than this (`merge_neighbours`; 0: never).
     pub merge_threshold: f32,
     /// A light the frame cuts grows out of view up to this side (metres; its start is its part in view, which
-    /// `size_range` does not bound).
+    /// `size_range` does not bound)...
     pub edge_max_side: f32,
+    /// ...a window up to this one, its part in view kept on the photo's window pixels where given (the
+    /// camera's size; else on the pixels it covered at the start, which the frame's edge may cut short).
+    pub window_max_side: f32,
+    pub window_pixels: Vec<bool>,
     /// The unit renders: samples per pixel, downsampling, path length. They are made at the size the fit
     /// compares (`light_fit::unit_render`: `spp` per reduced pixel, not per photo pixel).
     pub render: LightFitOptions,
@@ -64,6 +71,8 @@ impl Default for LightPlacementOptions {
             size_range: (0.5, 2.0),
             merge_threshold: 0.0,
             edge_max_side: 1.2,
+            window_max_side: 2.0,
+            window_pixels: vec![],
             render: LightFitOptions { spp: 64, ..Default::default() },
         }
     }
@@ -162,18 +171,28 @@ pub fn refine_light_placement(
             merge_neighbours(scene, &lights, &mut fit, &mut render, &target, &rel, opts.merge_threshold)?;
         renders += trials;
     }
-    // The lights the frame cuts: the photo's light pixels and the pixels each covered at the start.
+    // The lights the frame cuts, with the pixels each covered at the start, and what says where they show: for
+    // a ceiling light the photo's light pixels, for a window (whose pixels need not be white) those it covered.
     let bright = light_pixels(photo);
     let views: Vec<Option<Vec<bool>>> = lights
         .iter()
-        .map(|&i| is_edge_ceiling_light(&scene.objects[i].name).then(|| pixels_covered(scene, &scene.objects[i])))
+        .map(|&i| {
+            let o = &scene.objects[i];
+            let edge = is_edge_ceiling_light(&o.name);
+            (edge || is_visible_window(&o.name))
+                .then(|| pixels_covered(scene, o))
+                .filter(|covered| edge || touches_frame(covered, w, h))
+        })
         .collect();
+    let cut_window = |k: usize| views[k].is_some() && is_visible_window(&scene.objects[lights[k]].name);
+    let cut_windows: Vec<bool> = (0..lights.len()).map(cut_window).collect();
     let (mut step, mut passes) = (opts.step, 0);
     while step >= opts.min_step && !lights.is_empty() {
         let mut improved = false;
         passes += 1;
         for (k, &li) in lights.iter().enumerate() {
-            if is_visible_light(&scene.objects[li].name) || !fit.active.contains(&k) {
+            let shown = (is_visible_light(&scene.objects[li].name) && views[k].is_none()) || !fit.active.contains(&k);
+            if shown {
                 continue;
             }
             let pose = scene.objects[li].pose;
@@ -196,7 +215,8 @@ pub fn refine_light_placement(
                 // Sides from 5 cm (a patch's least) to the most it may grow out of view.
                 Some(_) => (0..2).all(|a| {
                     let side = extent[a] * s[a];
-                    side >= 0.05 - 1e-4 && side <= opts.edge_max_side.max(extent[a] * start[k].1[a]) + 1e-4
+                    let most = if cut_windows[k] { opts.window_max_side } else { opts.edge_max_side };
+                    side >= 0.05 - 1e-4 && side <= most.max(extent[a] * start[k].1[a]) + 1e-4
                 }),
                 None => {
                     let r = s.x / start[k].1.x;
@@ -210,7 +230,9 @@ pub fn refine_light_placement(
                     continue;
                 }
                 if let Some(view) = &views[k] {
-                    if !keeps_view(view, &pixels_covered(scene, &scene.objects[li]), &bright, VIEW_TOLERANCE) {
+                    let windows = (opts.window_pixels.len() == w * h).then_some(&opts.window_pixels);
+                    let shows = if cut_windows[k] { windows.unwrap_or(view) } else { &bright };
+                    if !keeps_view(view, &pixels_covered(scene, &scene.objects[li]), shows, VIEW_TOLERANCE) {
                         continue;
                     }
                 }
@@ -256,6 +278,11 @@ pub fn refine_light_placement(
     let gone: Vec<String> = result.merged.iter().map(|m| m.removed.clone()).collect();
     scene.objects.retain(|o| !gone.contains(&o.name));
     Ok(result)
+}
+
+/// Whether any of the pixels `covered` (a `w` x `h` image) lies on the image's border: the frame cuts the light.
+fn touches_frame(covered: &[bool], w: usize, h: usize) -> bool {
+    (0..w * h).any(|p| covered[p] && (p % w == 0 || p % w == w - 1 || p / w == 0 || p / w == h - 1))
 }
 
 /// An object's size along its local x and y (before its pose's scale).
