@@ -175,33 +175,38 @@ fn candidates_avoid_the_view_and_fit_a_light_they_do_not_contain() {
     assert!(fit.kept.iter().filter(|k| **k).count() < names.len(), "nothing removed");
 }
 
-/// A window the photo shows becomes an area light where it is: an emissive 1.2 x 1.0 m pane in the left wall of
-/// a rendered room, segmented as `window`, is placed by `add_visible_windows` on that wall with its edges within
-/// 5 cm from its pixels' range and within 2 cm (those the frame does not cut) with its outline fitted to the
-/// photo, facing into the room, and the light placement does not move it.
-#[test]
-fn a_visible_window_becomes_a_light_on_its_wall() {
+/// The test room seen by camera `r` (128 x 96) with an emissive 1.2 x 1.0 m pane (radiance 5) 1 cm in front of
+/// its left wall (x = -2.5) centred at `at`, its ceiling light kept or not, rendered at `spp` (0: the room's
+/// own): the depth, the window's instance (id 1), the photo as an 8-bit camera records it (clipped at its
+/// white), and the room without emitters that the tests fit.
+fn window_photo(
+    r: &RoomSpec,
+    at: Vec3,
+    ceiling_light: bool,
+    spp: u32,
+) -> (Vec<f32>, psdr::vision::Instances, Vec<f32>, psdr::scene::Scene) {
     use glam::Quat;
     use psdr::scene::{rectangle_mesh, Object, Pose};
-    use psdr::stages::add_visible_windows;
     use psdr::vision::{canonical_class, Instance, Instances};
-    let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.8, 1.5, 2.6), yaw: 15.0, pitch: -8.0, fov: 60.0 };
-    let (mut room, _) = room_scene(&r, &[], false, 128, 96);
-    // The test room's walls are named wall_*; the window 1 cm in front of the left wall (x = -2.5).
+    let (mut room, _) = room_scene(r, &[], false, 128, 96);
+    if !ceiling_light {
+        room.objects.retain(|o| o.emitter.is_none());
+    }
     let mut pane = rectangle_mesh(1.2, 1.0);
     pane.material = 0;
-    let at = Vec3::new(-2.49, 1.4, -0.5);
     room.objects.push(Object {
         name: "window".into(),
         parts: vec![pane],
         pose: Pose { translation: at, rotation: Quat::from_rotation_y(std::f32::consts::FRAC_PI_2), scale: Vec3::ONE },
         emitter: Some(Emitter::uniform(Vec3::splat(5.0), false)),
     });
+    if spp > 0 {
+        room.settings.spp = spp;
+    }
     let f = render_cpu(&SceneData::build(&room).unwrap(), &room.settings, &|_, _| {});
     let o = room.object_index("window").unwrap() as u32;
     let ids: Vec<u16> = f.object_id.iter().map(|&i| u16::from(i == o)).collect();
     let pixels = ids.iter().filter(|&&v| v == 1).count();
-    assert!(pixels > 200, "the window covers {pixels} pixels");
     let (class, kind) = canonical_class("window");
     let inst = Instances {
         width: 128,
@@ -209,10 +214,23 @@ fn a_visible_window_becomes_a_light_on_its_wall() {
         ids,
         instances: vec![Instance { id: 1, label: Some("window".into()), class: class.into(), kind, pixels }],
     };
-    // As an 8-bit photo records it: clipped at its white.
     let photo: Vec<f32> = f.radiance.iter().map(|v| v.min(1.0)).collect();
-    let mut fitted = room.clone();
-    fitted.objects.retain(|o| o.emitter.is_none());
+    room.objects.retain(|o| o.emitter.is_none());
+    (f.depth, inst, photo, room)
+}
+
+/// A window the photo shows becomes an area light where it is: an emissive 1.2 x 1.0 m pane in the left wall of
+/// a rendered room, segmented as `window`, is placed by `add_visible_windows` on that wall with its edges within
+/// 5 cm from its pixels' range and within 2 cm (those the frame does not cut) with its outline fitted to the
+/// photo, facing into the room, and the light placement does not move it.
+#[test]
+fn a_visible_window_becomes_a_light_on_its_wall() {
+    use psdr::stages::add_visible_windows;
+    let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.8, 1.5, 2.6), yaw: 15.0, pitch: -8.0, fov: 60.0 };
+    let at = Vec3::new(-2.49, 1.4, -0.5);
+    let (depth, inst, photo, mut fitted) = window_photo(&r, at, true, 0);
+    let pixels = inst.instances[0].pixels;
+    assert!(pixels > 200, "the window covers {pixels} pixels");
     // Its edges' errors (bottom, top, far side, near side), lying on the wall facing into the room.
     let edges_off = |s: &psdr::scene::Scene| {
         let w = s.objects.iter().find(|o| o.name == "light_window_1").unwrap();
@@ -228,14 +246,14 @@ fn a_visible_window_becomes_a_light_on_its_wall() {
     };
     // From the range of its pixels' points alone: within 5 cm (a pixel here is 4 cm on the wall).
     let mut coarse = fitted.clone();
-    assert_eq!(add_visible_windows(&mut coarse, None, &f.depth, &inst, 20), ["light_window_1"]);
+    assert_eq!(add_visible_windows(&mut coarse, None, &depth, &inst, 20), ["light_window_1"]);
     let off = edges_off(&coarse);
     assert!(off.iter().all(|e| *e < 0.05), "edges off {off:?} m");
     // With its outline fitted to the photo's pixels (each pixel's covered fraction, clipped at white): within
     // half a pixel, but for its near side, which the frame cuts (kept where the pixels end). Its edges run
     // nearly along the pixel grid, where an 8-bit photo says only which pixels are covered enough to clip (the
     // outline's own test finds slanted edges to a tenth of a pixel).
-    let names = add_visible_windows(&mut fitted, Some(&photo), &f.depth, &inst, 20);
+    let names = add_visible_windows(&mut fitted, Some(&photo), &depth, &inst, 20);
     assert_eq!(names, ["light_window_1"]);
     let off = edges_off(&fitted);
     assert!(off[..3].iter().all(|e| *e < 0.02) && off[3] < 0.05, "edges off {off:?} m");
@@ -261,39 +279,13 @@ fn a_visible_window_becomes_a_light_on_its_wall() {
 /// stayed its part in view.
 #[test]
 fn a_window_the_frame_cuts_grows_out_of_view() {
-    use glam::Quat;
-    use psdr::scene::{rectangle_mesh, Object, Pose};
     use psdr::stages::{add_visible_windows, refine_light_placement, LightPlacementOptions};
-    use psdr::vision::{canonical_class, Instance, Instances};
     let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(0.8, 1.5, 2.6), yaw: 15.0, pitch: -8.0, fov: 60.0 };
-    let (mut room, _) = room_scene(&r, &[], false, 128, 96);
-    room.objects.retain(|o| o.emitter.is_none());
-    let mut pane = rectangle_mesh(1.2, 1.0);
-    pane.material = 0;
     let at = Vec3::new(-2.49, 1.4, 0.3);
-    room.objects.push(Object {
-        name: "window".into(),
-        parts: vec![pane],
-        pose: Pose { translation: at, rotation: Quat::from_rotation_y(std::f32::consts::FRAC_PI_2), scale: Vec3::ONE },
-        emitter: Some(Emitter::uniform(Vec3::splat(5.0), false)),
-    });
-    room.settings.spp = 256;
-    let f = render_cpu(&SceneData::build(&room).unwrap(), &room.settings, &|_, _| {});
-    let o = room.object_index("window").unwrap() as u32;
-    let ids: Vec<u16> = f.object_id.iter().map(|&i| u16::from(i == o)).collect();
-    let pixels = ids.iter().filter(|&&v| v == 1).count();
-    let (class, kind) = canonical_class("window");
-    let window_pixels: Vec<bool> = ids.iter().map(|&v| v == 1).collect();
-    let inst = Instances {
-        width: 128,
-        height: 96,
-        ids,
-        instances: vec![Instance { id: 1, label: Some("window".into()), class: class.into(), kind, pixels }],
-    };
-    let photo: Vec<f32> = f.radiance.iter().map(|v| v.min(1.0)).collect();
-    let mut fitted = room.clone();
-    fitted.objects.retain(|o| o.emitter.is_none());
-    let names = add_visible_windows(&mut fitted, Some(&photo), &f.depth, &inst, 20);
+    let (depth, inst, photo, mut fitted) = window_photo(&r, at, false, 256);
+    let pixels = inst.instances[0].pixels;
+    let window_pixels: Vec<bool> = inst.ids.iter().map(|&v| v == 1).collect();
+    let names = add_visible_windows(&mut fitted, Some(&photo), &depth, &inst, 20);
     assert_eq!(names, ["light_window_1"]);
     let extent = |s: &psdr::scene::Scene| {
         let w = s.objects.iter().find(|o| o.name == names[0]).unwrap();
