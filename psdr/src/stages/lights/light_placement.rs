@@ -12,7 +12,7 @@
 //! cuts (`is_edge_ceiling_light`) moves only out of view: besides the moves above, each of its sides may move
 //! out or in by the step, and a move is kept only where its part in view still covers the photo's light pixels
 //! and no others (`light_view`). A window the photo shows that the frame cuts moves so too, its part in view
-//! kept on the pixels it covered: it lights the room through all of itself, and held to the sliver in view
+//! kept on the photo's window pixels: it lights the room through all of itself, and held to the sliver in view
 //! (real room06's 1.2 x 1.0 m window as 0.24 x 0.61 m at three times its radiance, with the true materials
 //! given) it lit the wall beside it and left the far walls dark.
 
@@ -172,7 +172,8 @@ pub fn refine_light_placement(
         renders += trials;
     }
     // The lights the frame cuts, with the pixels each covered at the start, and what says where they show: for
-    // a ceiling light the photo's light pixels, for a window (whose pixels need not be white) those it covered.
+    // a ceiling light the photo's light pixels, for a window (whose pixels need not be white) the photo's
+    // window pixels, or without them those it covered.
     let bright = light_pixels(photo);
     let views: Vec<Option<Vec<bool>>> = lights
         .iter()
@@ -191,8 +192,9 @@ pub fn refine_light_placement(
         let mut improved = false;
         passes += 1;
         for (k, &li) in lights.iter().enumerate() {
-            let shown = (is_visible_light(&scene.objects[li].name) && views[k].is_none()) || !fit.active.contains(&k);
-            if shown {
+            // A light the photo shows stays where it is, unless the frame cuts it.
+            let held = is_visible_light(&scene.objects[li].name) && views[k].is_none();
+            if held || !fit.active.contains(&k) {
                 continue;
             }
             let pose = scene.objects[li].pose;
