@@ -129,6 +129,15 @@ fn the_example_photo_becomes_a_scene_close_to_its_truth() {
     assert!(html.contains(&format!("Emitters (lights and windows): {emitters}")), "emitter count");
     assert!(html.contains("Evaluation against the truth"));
     assert!(html.contains("image.rmse_rel_1_8"));
+    // The image error split among the truth's surfaces: the shares cover it, the parts add in quadrature to the
+    // whole as the evaluation measures it, and the page lists them.
+    let parts = e["image"]["by_surface_1_8"].as_array().expect("image.by_surface_1_8 in result.json");
+    let share: f64 = parts.iter().map(|p| p["share"].as_f64().unwrap()).sum();
+    let whole = parts.iter().map(|p| p["rmse_rel"].as_f64().unwrap().powi(2)).sum::<f64>().sqrt();
+    let rmse = e["image"]["rmse_rel_1_8"].as_f64().unwrap();
+    assert!((share - 1.0).abs() < 1e-6 && (whole - rmse).abs() < 1e-4 * rmse.max(1e-3), "{share} {whole} {rmse}");
+    assert!(parts.iter().any(|p| p["surface"] == "wall") && parts.iter().any(|p| p["surface"] == "floor"), "{parts:?}");
+    assert!(html.contains("The image error by the truth"));
     // The lights the fits removed (of the candidates on the ceiling grid, behind the camera and on the walls),
     // each by name, in result.json and on the page.
     let removed = result["recorded"]["lights_removed"].as_array().expect("lights_removed in result.json");

@@ -93,12 +93,16 @@ const PREVIEW_SPP: u32 = 4;
 
 const HEADER: &str = "room,mode,crashed,error,sets,objects_true,objects_found,same_class,same_model,mask_iou_median,\
 mask_iou_worst,image_rmse_1_8_pct,ssim,albedo_median_err_pct,lights_true,lights_fitted,s_room,s_objects,s_lights,\
-s_materials,s_total,image_rmse_clipped_1_8_pct,image_noise_1_8_pct,image_bias_1_8_pct";
+s_materials,s_total,image_rmse_clipped_1_8_pct,image_noise_1_8_pct,image_bias_1_8_pct,image_rmse_1_32_pct,\
+error_by_surface";
 
 /// Column indices of the CSV (see HEADER).
 const COL_IOU: usize = 9;
 /// The image error as the photo's 8-bit encoding sees a render.
 const COL_CLIPPED: usize = 21;
+/// The image error at 1/8 size, and the split of it among surfaces (the last column).
+const COL_IMAGE: usize = 11;
+const COL_SURFACES: usize = 25;
 const COL_TOTAL: usize = 20;
 
 /// A CSV field: no commas or line breaks.
@@ -213,13 +217,20 @@ fn truth_floor(room_dir: &Path, room: &str) -> anyhow::Result<String> {
     let ssim = psdr::stages::ssim_luminance(&render, &photo.data, w, h);
     let blanks = |n: usize| ",".repeat(n);
     let clipped = truth_clipped(room_dir)?;
+    // Where its error lies: the surfaces its noise falls on.
+    let mut view = truth.clone();
+    (view.settings.spp, view.settings.max_depth) = (1, 1);
+    let ids = psdr::render::render_cpu(&psdr::render::SceneData::build(&view)?, &view.settings, &|_, _| {});
+    let by_surface = psdr::stages::image_error_by_surface(&render, &photo.data, &truth, &ids, 8);
     Ok(format!(
-        "{room},truth,0,,{},{:.2},{ssim:.3}{},{clipped:.2},{:.2},{:.2}\n",
+        "{room},truth,0,,{},{:.2},{ssim:.3}{},{clipped:.2},{:.2},{:.2},{:.2},{}\n",
         blanks(6),
         rmse * 100.0,
         blanks(8),
         noise * 100.0,
-        bias * 100.0
+        bias * 100.0,
+        psdr::stages::relative_rmse_downsampled(&render, &photo.data, w, h, 32) * 100.0,
+        surfaces_field(&by_surface)
     ))
 }
 
@@ -245,7 +256,8 @@ fn truth_clipped(room_dir: &Path) -> anyhow::Result<f64> {
 }
 
 /// The clipped image error of a finished row (`BENCH_REAL_ROOMS_RESCORE`): from the run's render.png, or the
-/// truth's render for a `truth` row; empty for a crashed run.
+/// truth's render for a `truth` row; empty for a crashed run. A row without the error's split among surfaces
+/// gets it from its run's scene.json (`surface_scores`), where that still scores the row's image error.
 fn rescore(dir: &Path, row: &str) -> String {
     let mut cols: Vec<String> = row.split(',').map(String::from).collect();
     cols.resize(HEADER.split(',').count(), String::new());
@@ -257,7 +269,29 @@ fn rescore(dir: &Path, row: &str) -> String {
         (false, "truth") => truth_clipped(&room_dir).ok(),
         (false, m) => clipped_rmse(&room_dir.join(format!("out-{m}/render.png")), &room_dir.join("photo.png")).ok(),
     };
-    cols[COL_CLIPPED] = value.map(|v| format!("{v:.2}")).unwrap_or_default();
+    // (kept as it is where the run's render is gone: a row of a mode whose outputs were not kept)
+    if let Some(v) = value {
+        cols[COL_CLIPPED] = format!("{v:.2}");
+    }
+    // The error's split among surfaces, where the row lacks it and its run's scene is there to render again.
+    let scene = match mode {
+        "truth" => room_dir.join("truth.json"),
+        m => room_dir.join(format!("out-{m}/scene.json")),
+    };
+    if !crashed && cols[COL_SURFACES].is_empty() && scene.is_file() {
+        // The truth row's own samples are not the photo's (`truth_floor`).
+        match surface_scores(&room_dir, &scene, u32::from(mode == "truth")) {
+            // Only where the run's scene is still the row's: its error at 1/8 as the row has it.
+            Ok((at_8, at_32, by)) if format!("{:.2}", at_8 * 100.0) == cols[COL_IMAGE] => {
+                cols[COL_SURFACES - 1] = format!("{:.2}", at_32 * 100.0);
+                cols[COL_SURFACES] = surfaces_field(&by);
+            }
+            Ok((at_8, ..)) => {
+                eprintln!("{room} {mode}: the scene scores {:.2} %, the row {} %: left", at_8 * 100.0, cols[COL_IMAGE])
+            }
+            Err(e) => eprintln!("{room} {mode}: {e}"),
+        }
+    }
     cols.join(",")
 }
 
@@ -374,7 +408,7 @@ fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) 
         .map(|v| format!("{v:.2}"))
         .unwrap_or_default();
     format!(
-        "{room},{mode},0,,{set_text},{},{},{same_class},{same_model},{:.3},{:.3},{:.2},{:.3},{albedo_median:.1},{},{},{:.1},{:.1},{:.1},{:.1},{:.1},{clipped},{:.2},{:.2}\n",
+        "{room},{mode},0,,{set_text},{},{},{same_class},{same_model},{:.3},{:.3},{:.2},{:.3},{albedo_median:.1},{},{},{:.1},{:.1},{:.1},{:.1},{:.1},{clipped},{:.2},{:.2},{:.2},{}\n",
         models.len(),
         e["objects_found"],
         num(&e["mask_iou"]["median"]),
@@ -390,7 +424,55 @@ fn run_one(room_dir: &Path, room: &str, mode: &str, db: &Path, sets: &[String]) 
         num(&r["total_seconds"]),
         num(&e["image"]["noise_rel_1_8"]) * 100.0,
         num(&e["image"]["bias_rel_1_8"]) * 100.0,
+        num(&e["image"]["rmse_rel_1_32"]) * 100.0,
+        surfaces_field(&e["image"]["by_surface_1_8"]),
     )
+}
+
+/// The surfaces that carry most of the image error at 1/8 size (`evaluation.image.by_surface_1_8`): the
+/// largest four with their shares of the squared error in percent, "floor 59 wall 19 ...".
+fn surfaces_field(by_surface: &serde_json::Value) -> String {
+    let parts: Vec<String> = by_surface
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .take(4)
+                .map(|x| {
+                    format!(
+                        "{} {:.0}",
+                        x["surface"].as_str().unwrap_or("?"),
+                        x["share"].as_f64().unwrap_or(0.0) * 100.0
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    field(&parts.join(" "))
+}
+
+/// A scene file rendered as the evaluation renders it (its own samples at `evaluation_spp`, plus `seed_offset`)
+/// against the room's photo: the image error at 1/8 size (to check against the row's), at 1/32, and its split
+/// among the truth's surfaces at 1/8 (`stages::image_error_by_surface`). For rows written before the evaluation
+/// split the error (`BENCH_REAL_ROOMS_RESCORE`).
+fn surface_scores(room_dir: &Path, scene: &Path, seed_offset: u32) -> anyhow::Result<(f32, f32, serde_json::Value)> {
+    let photo = psdr::vision::load_photo(&room_dir.join("photo.png"))?;
+    let (w, h) = (photo.width, photo.height);
+    let mut fitted = psdr::scene::load_scene(scene)?;
+    (fitted.camera.width, fitted.camera.height) = (w as u32, h as u32);
+    fitted.settings.spp = evaluation_spp()?;
+    fitted.settings.seed = fitted.settings.seed.wrapping_add(seed_offset);
+    let f = psdr::render::render_cpu(&psdr::render::SceneData::build(&fitted)?, &fitted.settings, &|_, _| {});
+    let truth = psdr::scene::load_scene(&room_dir.join("truth.json"))?;
+    let mut view = truth.clone();
+    (view.camera.width, view.camera.height) = (w as u32, h as u32);
+    (view.settings.spp, view.settings.max_depth) = (1, 1);
+    let ids = psdr::render::render_cpu(&psdr::render::SceneData::build(&view)?, &view.settings, &|_, _| {});
+    let render = psdr::vision::clip_like_photo(&f.radiance, &photo.data);
+    Ok((
+        psdr::stages::relative_rmse_downsampled(&render, &photo.data, w, h, 8),
+        psdr::stages::relative_rmse_downsampled(&render, &photo.data, w, h, 32),
+        psdr::stages::image_error_by_surface(&render, &photo.data, &truth, &ids, 8),
+    ))
 }
 
 /// Object mask IoU (median, the worst as a dashed line) and total time per room, both modes.

@@ -64,6 +64,24 @@ pub fn build_summary(out: &Path, photo: &Path, render: &Path, scene: &Scene, rec
             header: vec!["quantity".into(), "value".into()],
             rows,
         });
+        if let Some(Value::Array(parts)) = e.get("image").and_then(|i| i.get("by_surface_1_8")) {
+            let rows = parts
+                .iter()
+                .map(|p| {
+                    let pct = |k: &str| p[k].as_f64().map_or("-".into(), |v| format!("{:.1} %", 100.0 * v));
+                    vec![p["surface"].as_str().unwrap_or("").into(), pct("share"), pct("rmse_rel")]
+                })
+                .collect();
+            summary.tables.push(SummaryTable {
+                title: "The image error by the truth's surfaces (each 1/8-size block's squared error shared by its \
+                        pixels; the parts add in quadrature to the whole)"
+                    .into(),
+                header: ["surface", "share of the squared error", "its part of the relative RMSE"]
+                    .map(String::from)
+                    .to_vec(),
+                rows,
+            });
+        }
     }
     let lights: Vec<Vec<String>> = scene
         .objects

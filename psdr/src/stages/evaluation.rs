@@ -274,6 +274,76 @@ pub fn albedo_errors(truth: &Scene, fitted_frame: &Frame, truth_frame: &Frame) -
     json!({ "surfaces": surfaces, "worst_error_rel": worst })
 }
 
+/// The image error at 1/`k` size (`relative_rmse_downsampled`) split among the truth's surfaces, named as
+/// `albedo_errors` names them (the walls as one; its lights and windows as "lights and windows", what the truth
+/// shows nothing at as "none"): each block's squared error shared among the surfaces by their pixels in it.
+/// Per surface, largest first: its `share` of the squared error and its `rmse_rel`, the part of the relative
+/// error it carries (the parts add in quadrature to the whole). Says which surface a fit gets wrong: a floor's
+/// photographed wood no library material reproduces, a sofa of another model, a wall lit from the wrong place.
+pub fn image_error_by_surface(render: &[f32], photo: &[f32], truth: &Scene, truth_frame: &Frame, k: usize) -> Value {
+    let (w, h) = (truth_frame.width as usize, truth_frame.height as usize);
+    if render.len() != w * h * 3 || photo.len() != w * h * 3 || truth_frame.object_id.len() != w * h {
+        return Value::Null;
+    }
+    let mut names: Vec<String> = vec![];
+    let mut index = |name: String| match names.iter().position(|n| *n == name) {
+        Some(i) => i,
+        None => {
+            names.push(name);
+            names.len() - 1
+        }
+    };
+    let labels: Vec<usize> = truth_frame
+        .object_id
+        .iter()
+        .map(|&id| match truth.objects.get(id as usize) {
+            None => index("none".into()),
+            Some(o) => index(albedo_segment(o).unwrap_or_else(|| "lights and windows".into())),
+        })
+        .collect();
+    let parts = error_by_label(render, photo, &labels, names.len(), w, h, k);
+    let total: f64 = parts.iter().sum();
+    let mut order: Vec<usize> = (0..names.len()).collect();
+    order.sort_by(|&a, &b| parts[b].total_cmp(&parts[a]));
+    let scale = mean(&block_means(photo, w, h, k));
+    let blocks = ((w / k).max(1) * (h / k).max(1) * 3) as f64;
+    let surfaces: Vec<Value> = order
+        .into_iter()
+        .filter(|&i| parts[i] > 0.0)
+        .map(|i| {
+            json!({ "surface": names[i], "share": parts[i] / total.max(1e-30),
+                    "rmse_rel": (parts[i] / blocks).sqrt() / scale })
+        })
+        .collect();
+    Value::Array(surfaces)
+}
+
+/// The squared error of `a` against `b` (RGB, `w` x `h`) after `k` x `k` box downsampling, summed over blocks
+/// and channels, split among `n` labels (`labels`: one per pixel) by each label's share of a block's pixels.
+fn error_by_label(a: &[f32], b: &[f32], labels: &[usize], n: usize, w: usize, h: usize, k: usize) -> Vec<f64> {
+    let (da, db) = (block_means(a, w, h, k), block_means(b, w, h, k));
+    let (sw, sh) = ((w / k).max(1), (h / k).max(1));
+    let mut parts = vec![0.0f64; n];
+    let mut count = vec![0usize; n];
+    for y in 0..sh {
+        for x in 0..sw {
+            let e: f64 = (0..3).map(|c| (da[(y * sw + x) * 3 + c] - db[(y * sw + x) * 3 + c]).powi(2)).sum();
+            count.iter_mut().for_each(|c| *c = 0);
+            let mut pixels = 0usize;
+            for yy in y * k..((y + 1) * k).min(h) {
+                for xx in x * k..((x + 1) * k).min(w) {
+                    count[labels[yy * w + xx]] += 1;
+                    pixels += 1;
+                }
+            }
+            for (part, &c) in parts.iter_mut().zip(&count) {
+                *part += e * c as f64 / pixels.max(1) as f64;
+            }
+        }
+    }
+    parts
+}
+
 /// `texture_loss` of the fitted albedo against the truth's on the mask's squarest rectangle, both divided by
 /// their mean colours; None where it is under 24 pixels a side or the truth's albedo there is flat (local
 /// contrast under 2 %).
@@ -494,7 +564,10 @@ pub fn evaluate(
         "lights": { "fitted": lights(fitted, false), "truth": lights(truth, false),
                     "truth_windows": lights(truth, true), "fitted_windows": lights(fitted, true),
                     "positions": light_positions },
-        "image": { "rmse_rel_1_8": relative_rmse_downsampled(render, photo, w, h, 8), "ssim": ssim_luminance(render, photo, w, h) },
+        "image": { "rmse_rel_1_8": relative_rmse_downsampled(render, photo, w, h, 8),
+                   "rmse_rel_1_32": relative_rmse_downsampled(render, photo, w, h, 32),
+                   "by_surface_1_8": image_error_by_surface(render, photo, truth, truth_frame, 8),
+                   "ssim": ssim_luminance(render, photo, w, h) },
         "albedo": albedo_errors(truth, fitted_frame, truth_frame),
         "mask_iou": masks.and_then(|(m, merged)| mask_ious(fitted, fitted_frame, m, merged)),
     })
@@ -503,6 +576,25 @@ pub fn evaluate(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_image_error_is_shared_among_surfaces_by_their_pixels() {
+        // 16 x 8: two 8 x 8 blocks. Label 0 on the left block and the right block's left half, label 1 on the
+        // right block's right half; only the right block differs (by 0.2 in every channel).
+        let (w, h) = (16, 8);
+        let photo = vec![0.5f32; w * h * 3];
+        let render: Vec<f32> = (0..w * h * 3).map(|i| if (i / 3) % w >= 8 { 0.7 } else { 0.5 }).collect();
+        let labels: Vec<usize> = (0..w * h).map(|p| usize::from(p % w >= 12)).collect();
+        let parts = error_by_label(&render, &photo, &labels, 2, w, h, 8);
+        // The right block's squared error, 3 x 0.2^2, half to each label; none from the left block.
+        assert!((parts[0] - 0.06).abs() < 1e-6 && (parts[1] - 0.06).abs() < 1e-6, "{parts:?}");
+        // The parts add up to the whole error as relative_rmse_downsampled measures it.
+        let whole = relative_rmse_downsampled(&render, &photo, w, h, 8) as f64;
+        let from_parts = ((parts[0] + parts[1]) / (2.0 * 3.0)).sqrt() / 0.5;
+        assert!((whole - from_parts).abs() < 1e-6, "{whole} {from_parts}");
+        // A render equal to the photo has no error anywhere.
+        assert!(error_by_label(&photo, &photo, &labels, 2, w, h, 8).iter().all(|&p| p == 0.0));
+    }
 
     #[test]
     fn image_metrics_meet_their_definitions() {
