@@ -218,10 +218,7 @@ fn truth_floor(room_dir: &Path, room: &str) -> anyhow::Result<String> {
     let blanks = |n: usize| ",".repeat(n);
     let clipped = truth_clipped(room_dir)?;
     // Where its error lies: the surfaces its noise falls on.
-    let mut view = truth.clone();
-    (view.settings.spp, view.settings.max_depth) = (1, 1);
-    let ids = psdr::render::render_cpu(&psdr::render::SceneData::build(&view)?, &view.settings, &|_, _| {});
-    let by_surface = psdr::stages::image_error_by_surface(&render, &photo.data, &truth, &ids, 8);
+    let by_surface = psdr::stages::image_error_by_surface(&render, &photo.data, &truth, &surface_ids(&truth, w, h)?, 8);
     Ok(format!(
         "{room},truth,0,,{},{:.2},{ssim:.3}{},{clipped:.2},{:.2},{:.2},{:.2},{}\n",
         blanks(6),
@@ -450,6 +447,15 @@ fn surfaces_field(by_surface: &serde_json::Value) -> String {
     field(&parts.join(" "))
 }
 
+/// The truth's surface at each pixel's centre, `w` x `h` (the object ids `image_error_by_surface` reads; one
+/// sample, no bounce: the evaluation's own truth render gives the same ids).
+fn surface_ids(truth: &psdr::scene::Scene, w: usize, h: usize) -> anyhow::Result<psdr::render::Frame> {
+    let mut view = truth.clone();
+    (view.camera.width, view.camera.height) = (w as u32, h as u32);
+    (view.settings.spp, view.settings.max_depth) = (1, 1);
+    Ok(psdr::render::render_cpu(&psdr::render::SceneData::build(&view)?, &view.settings, &|_, _| {}))
+}
+
 /// A scene file rendered as the evaluation renders it (its own samples at `evaluation_spp`, plus `seed_offset`)
 /// against the room's photo: the image error at 1/8 size (to check against the row's), at 1/32, and its split
 /// among the truth's surfaces at 1/8 (`stages::image_error_by_surface`). For rows written before the evaluation
@@ -463,10 +469,7 @@ fn surface_scores(room_dir: &Path, scene: &Path, seed_offset: u32) -> anyhow::Re
     fitted.settings.seed = fitted.settings.seed.wrapping_add(seed_offset);
     let f = psdr::render::render_cpu(&psdr::render::SceneData::build(&fitted)?, &fitted.settings, &|_, _| {});
     let truth = psdr::scene::load_scene(&room_dir.join("truth.json"))?;
-    let mut view = truth.clone();
-    (view.camera.width, view.camera.height) = (w as u32, h as u32);
-    (view.settings.spp, view.settings.max_depth) = (1, 1);
-    let ids = psdr::render::render_cpu(&psdr::render::SceneData::build(&view)?, &view.settings, &|_, _| {});
+    let ids = surface_ids(&truth, w, h)?;
     let render = psdr::vision::clip_like_photo(&f.radiance, &photo.data);
     Ok((
         psdr::stages::relative_rmse_downsampled(&render, &photo.data, w, h, 8),
