@@ -19,7 +19,7 @@
 //! path recorder and the velocity fields of geometric parameters (path/).
 
 mod ad;
-mod boundary;
+pub(crate) mod boundary;
 mod estimate;
 mod interior;
 mod path;

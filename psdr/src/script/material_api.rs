@@ -19,6 +19,9 @@
 //! `object_pictures(s, photo, segments, #{spp, max_error_ratio, max_cells, min_cells, max_size})` puts a
 //! retrieved model's own pictures back on its parts where, tinted to the fitted albedo, they are closer to the
 //! photo's albedo than it (`stages::object_pictures`), recorded as `object_pictures` and returned.
+//! `photo_textures(s, photo, segments, #{spp, window, max_ratio, max_size, erode, detail})` gives each segment
+//! whose material is one plane the photo's own pattern as its albedo texture around the fitted constant
+//! (`stages::photo_textures`), recorded as `photo_textures` and returned.
 
 use super::api_support::{check_photo, on_backend, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
@@ -26,9 +29,9 @@ use super::vision_api::ObsHandle;
 use crate::error::Error;
 use crate::loss::{Image, Tensor};
 use crate::stages::{
-    agreeing_blocks, apply_object_pictures, divide_albedos, geometry_agreement, library_textures, material_segments,
-    search_light_scale, texture_surfaces, Division, LightFitOptions, LightScaleOptions, ObjectPictureOptions, Segment,
-    SurfaceTextureOptions,
+    agreeing_blocks, apply_object_pictures, apply_photo_textures, divide_albedos, geometry_agreement, library_textures,
+    material_segments, search_light_scale, texture_surfaces, Division, LightFitOptions, LightScaleOptions,
+    ObjectPictureOptions, PhotoTextureOptions, Segment, SurfaceTextureOptions,
 };
 use rhai::{Dynamic, Engine, Map};
 
@@ -254,6 +257,45 @@ fn pictures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
     rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
 }
 
+fn photo_textures(
+    run: &RunRef,
+    scene: &mut SceneHandle,
+    photo: &Tensor,
+    map: &Map,
+    opts: &Map,
+) -> crate::Result<Dynamic> {
+    let what = "photo_textures";
+    let mut o = PhotoTextureOptions::default();
+    let mut detail: Option<Image> = None;
+    for (k, v) in opts {
+        if k == "detail" {
+            let t = v.clone().try_cast::<Tensor>().ok_or_else(|| {
+                Error::Invalid(format!("{what}: 'detail' is an image (obs.photo_detail(working, long_side))"))
+            })?;
+            detail = Some(t.value().clone());
+            continue;
+        }
+        let n = option_number(what, k, v)?;
+        match k.as_str() {
+            "spp" => o.spp = n.max(1.0) as u32,
+            "window" => o.window = n.max(1e-3) as f32,
+            "max_ratio" => o.max_ratio = n.max(1.0) as f32,
+            "max_size" => o.max_size = n.clamp(2.0, 8192.0) as usize,
+            "erode" => o.erode = n.clamp(0.0, 16.0) as usize,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "{what}: unknown option '{other}' (spp, window, max_ratio, max_size, erode, detail)"
+                )))
+            }
+        }
+    }
+    let (photo, segs) = segments(what, scene, photo, map)?;
+    let done = on_backend(run, what, |b| apply_photo_textures(b, &mut scene.0, &photo, detail.as_ref(), &segs, &o))?;
+    let v = serde_json::to_value(&done).map_err(|e| Error::Invalid(e.to_string()))?;
+    run.borrow_mut().recorded.insert(what.into(), v.clone());
+    rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
+}
+
 fn segments_of(scene: &SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Result<Map> {
     let mut min_pixels = 20usize;
     for (k, v) in opts {
@@ -315,6 +357,13 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
         "object_pictures",
         move |s: &mut SceneHandle, photo: Tensor, segments: Map, opts: Map| -> Rr<Dynamic> {
             pictures(&r, s, &photo, &segments, &opts).map_err(rhai_err)
+        },
+    );
+    let r = run.clone();
+    engine.register_fn(
+        "photo_textures",
+        move |s: &mut SceneHandle, photo: Tensor, segments: Map, opts: Map| -> Rr<Dynamic> {
+            photo_textures(&r, s, &photo, &segments, &opts).map_err(rhai_err)
         },
     );
     let r = run.clone();

@@ -27,6 +27,7 @@ pub use lights::{refine_light_placement, LightPlacement, LightPlacementOptions};
 pub use lights::{search_ceiling_height, CeilingSearch, CeilingSearchOptions};
 pub use materials::{agreeing_blocks, geometry_agreement, material_segments};
 pub use materials::{apply_object_pictures, ObjectPicture, ObjectPictureOptions};
+pub use materials::{apply_photo_textures, plane_map, PhotoTexture, PhotoTextureOptions, PlaneMap};
 pub use materials::{
     contrast, library_textures, search_materials, search_materials_on, search_materials_with, transformed_view,
     view_at, LibraryTexture, MaterialEncoder, MaterialMatch,
