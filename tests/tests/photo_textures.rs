@@ -7,7 +7,7 @@
 //! the planks' tones that vary slower than it with the lights),
 //! its mean kept (within 3 %: the lights fitted to the constant stay right), the render closer to the photo at
 //! the working size and no farther at 1/8 size; the texels the photo does not show keep the constant; the
-//! walls' material, on four planes, and the furniture's are left homogeneous.
+//! walls' material, on four planes, the furniture's and the ceiling its lights hang on are left homogeneous.
 
 use glam::{Vec2, Vec3};
 use psdr::backend::CpuBackend;
@@ -68,7 +68,7 @@ fn a_plank_floor_takes_the_photos_pattern_in_phase_and_keeps_its_mean() {
             .collect();
         Segment { material: m, mask }
     };
-    let segments = [segment("floor"), segment("wall"), segment("cabinet_7")];
+    let segments = [segment("floor"), segment("wall"), segment("cabinet_7"), segment("ceiling")];
     let before = render(&start, 64);
     let mut fitted = start.clone();
     let t = std::time::Instant::now();
@@ -88,6 +88,7 @@ fn a_plank_floor_takes_the_photos_pattern_in_phase_and_keeps_its_mean() {
     for d in &done[1..] {
         assert!(!d.applied, "{}: {}", d.material, d.decision);
     }
+    assert!(done[3].decision.starts_with("lights lie on this plane"), "ceiling: {}", done[3].decision);
     assert_eq!(fitted.materials[segments[1].material].albedo, start.materials[segments[1].material].albedo);
     assert_eq!(fitted.materials[segments[2].material].albedo, start.materials[segments[2].material].albedo);
 
