@@ -170,6 +170,14 @@ fn scale_search(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map
         .ok_or_else(|| Error::Invalid("light_scale_search: result is not a map".into()))
 }
 
+/// A `detail` option's image (the photo at more pixels, `obs.photo_detail(working, long_side)`).
+fn detail_image(what: &str, v: &Dynamic) -> crate::Result<Image> {
+    let t = v.clone().try_cast::<Tensor>().ok_or_else(|| {
+        Error::Invalid(format!("{what}: 'detail' is an image (obs.photo_detail(working, long_side))"))
+    })?;
+    Ok(t.value().clone())
+}
+
 fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<Dynamic> {
     let what = "texture_surfaces";
     let mut o = SurfaceTextureOptions::default();
@@ -177,10 +185,7 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
     let mut detail: Option<Image> = None;
     for (k, v) in opts {
         if k == "detail" {
-            let t = v.clone().try_cast::<Tensor>().ok_or_else(|| {
-                Error::Invalid(format!("{what}: 'detail' is an image (obs.photo_detail(working, long_side))"))
-            })?;
-            detail = Some(t.value().clone());
+            detail = Some(detail_image(what, v)?);
             continue;
         }
         if k == "register" {
@@ -269,10 +274,7 @@ fn photo_textures(
     let mut detail: Option<Image> = None;
     for (k, v) in opts {
         if k == "detail" {
-            let t = v.clone().try_cast::<Tensor>().ok_or_else(|| {
-                Error::Invalid(format!("{what}: 'detail' is an image (obs.photo_detail(working, long_side))"))
-            })?;
-            detail = Some(t.value().clone());
+            detail = Some(detail_image(what, v)?);
             continue;
         }
         let n = option_number(what, k, v)?;

@@ -24,7 +24,7 @@
 //! to the constants, which are the textures' local means.
 
 use super::albedo_division::{Segment, ALBEDO_RANGE};
-use super::surface_textures::blurred;
+use super::surface_textures::{blurred, detail_or_working};
 use crate::backend::Backend;
 use crate::base::erode;
 use crate::error::{Error, Result};
@@ -281,18 +281,9 @@ pub fn apply_photo_textures(
     opts: &PhotoTextureOptions,
 ) -> Result<Vec<PhotoTexture>> {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    if photo.len() != w * h * 3 {
-        return Err(Error::Invalid(format!("photo_textures: the photo is not the camera's {w}x{h} RGB")));
-    }
-    let working = Image { width: w, height: h, channels: 3, data: photo.to_vec() };
-    let detail = detail.unwrap_or(&working);
+    let detail = detail_or_working("photo_textures", photo, detail, (w, h))?;
+    let detail = detail.as_ref();
     let k = detail.width as f32 / w as f32;
-    if detail.channels != 3 || detail.width < w || ((detail.height as f32 / h as f32) / k - 1.0).abs() > 0.02 {
-        return Err(Error::Invalid(format!(
-            "photo_textures: the detail photo is {}x{}x{}, not RGB of the working {w}x{h}'s aspect and at least its size",
-            detail.width, detail.height, detail.channels
-        )));
-    }
     if segments.is_empty() {
         return Ok(vec![]);
     }

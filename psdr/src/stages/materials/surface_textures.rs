@@ -153,24 +153,11 @@ pub fn texture_surfaces(
     opts: &SurfaceTextureOptions,
 ) -> Result<Vec<SurfaceTexture>> {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    if photo.len() != w * h * 3 {
-        return Err(Error::Invalid(format!("texture_surfaces: the photo is not the camera's {w}x{h} RGB")));
-    }
+    let detail = detail_or_working("texture_surfaces", photo, detail, (w, h))?;
+    let has_detail = matches!(detail, std::borrow::Cow::Borrowed(_));
+    let detail = detail.as_ref();
     let working = Image { width: w, height: h, channels: 3, data: photo.to_vec() };
-    let detail = detail.unwrap_or(&working);
-    if detail.channels != 3 || detail.width < w || detail.height < h {
-        return Err(Error::Invalid(format!(
-            "texture_surfaces: the detail photo is {}x{}x{}, not RGB at least the working {w}x{h}",
-            detail.width, detail.height, detail.channels
-        )));
-    }
     let k = [detail.width as f32 / w as f32, detail.height as f32 / h as f32];
-    if (k[0] / k[1] - 1.0).abs() > 0.02 {
-        return Err(Error::Invalid(format!(
-            "texture_surfaces: the detail photo's {}x{} is not the working {w}x{h}'s aspect",
-            detail.width, detail.height
-        )));
-    }
     let progress = crate::progress::activity(
         format!("textures: the shading at {} spp, then the library searched per segment", opts.spp.max(1)),
         Some(segments.len()),
@@ -232,7 +219,7 @@ pub fn texture_surfaces(
         }
         entry.crop = Some([r.x, r.y, r.w, r.h]);
         let rd = detail_rect([r.x, r.y, r.w, r.h], k, detail);
-        if !std::ptr::eq(detail, &working) {
+        if has_detail {
             entry.detail_crop = Some(rd);
         }
         // The texture gate looks at the working crop: its threshold was set there, and the detail photo's own
@@ -386,6 +373,37 @@ impl Trial {
         }
         d
     }
+}
+
+/// The detail photo to cut from (`texture_surfaces`, `photo_textures`): `detail` when given, checked to be RGB,
+/// at least the working `w` x `h` and of its aspect (to 2 %), else the working photo itself; `what` names the
+/// caller in errors.
+pub(super) fn detail_or_working<'a>(
+    what: &str,
+    photo: &[f32],
+    detail: Option<&'a Image>,
+    (w, h): (usize, usize),
+) -> Result<std::borrow::Cow<'a, Image>> {
+    if photo.len() != w * h * 3 {
+        return Err(Error::Invalid(format!("{what}: the photo is not the camera's {w}x{h} RGB")));
+    }
+    let Some(detail) = detail else {
+        return Ok(std::borrow::Cow::Owned(Image { width: w, height: h, channels: 3, data: photo.to_vec() }));
+    };
+    if detail.channels != 3 || detail.width < w || detail.height < h {
+        return Err(Error::Invalid(format!(
+            "{what}: the detail photo is {}x{}x{}, not RGB at least the working {w}x{h}",
+            detail.width, detail.height, detail.channels
+        )));
+    }
+    let k = [detail.width as f32 / w as f32, detail.height as f32 / h as f32];
+    if (k[0] / k[1] - 1.0).abs() > 0.02 {
+        return Err(Error::Invalid(format!(
+            "{what}: the detail photo's {}x{} is not the working {w}x{h}'s aspect",
+            detail.width, detail.height
+        )));
+    }
+    Ok(std::borrow::Cow::Borrowed(detail))
 }
 
 /// Working rect `r` in detail pixels (k detail pixels per working pixel), inside the detail photo.
