@@ -294,7 +294,8 @@ pub fn apply_photo_textures(
     let data = SceneData::build(scene)?;
     let mut settings = scene.settings.clone();
     settings.spp = opts.spp.max(1);
-    let render = blurred(&backend.render(&data, &settings, &|_, _| {})?.radiance, w, h);
+    // Rendered at the first segment that qualifies (none may: a textured sofa part is not a plane).
+    let mut render: Option<Vec<f32>> = None;
     let mut out = vec![];
     for seg in segments {
         progress.advance();
@@ -362,7 +363,11 @@ pub fn apply_photo_textures(
         lo -= Vec2::splat(2.0 * texel);
         let (tw, th) =
             (((extent.x / texel).ceil() as usize + 4).max(2), ((extent.y / texel).ceil() as usize + 4).max(2));
-        let (relative, inside) = relative_albedo(detail, &render, &mask, (w, h), k);
+        if render.is_none() {
+            render = Some(blurred(&backend.render(&data, &settings, &|_, _| {})?.radiance, w, h));
+        }
+        let render = render.as_deref().expect("rendered above");
+        let (relative, inside) = relative_albedo(detail, render, &mask, (w, h), k);
         let (dw, dh) = (detail.width, detail.height);
         let (mut raw, mut seen) = (vec![0.0f32; tw * th * 3], vec![0.0f32; tw * th]);
         for j in 0..th {
