@@ -22,6 +22,10 @@
 //! `photo_textures(s, photo, segments, #{spp, window, max_ratio, max_size, erode, detail})` gives each segment
 //! whose material is one plane the photo's own pattern as its albedo texture around the fitted constant
 //! (`stages::photo_textures`), recorded as `photo_textures` and returned.
+//! `own_materials(s, objects)` gives each listed object's parts a material of their own where they share one
+//! (the room's four walls), and `join_alike_materials(s, segments, materials, #{tolerance, name})` joins those
+//! the segments show alike, and those they do not show, back into one (`stages::own_materials`); both
+//! recorded and returned.
 
 use super::api_support::{check_photo, on_backend, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
@@ -29,11 +33,12 @@ use super::vision_api::ObsHandle;
 use crate::error::Error;
 use crate::loss::{Image, Tensor};
 use crate::stages::{
-    agreeing_blocks, apply_object_pictures, apply_photo_textures, divide_albedos, geometry_agreement, library_textures,
-    material_segments, search_light_scale, texture_surfaces, Division, LightFitOptions, LightScaleOptions,
-    ObjectPictureOptions, PhotoTextureOptions, Segment, SurfaceTextureOptions,
+    agreeing_blocks, apply_object_pictures, apply_photo_textures, divide_albedos, geometry_agreement,
+    join_alike_materials, library_textures, material_segments, own_materials, search_light_scale, texture_surfaces,
+    Division, LightFitOptions, LightScaleOptions, ObjectPictureOptions, PhotoTextureOptions, Segment,
+    SurfaceTextureOptions,
 };
-use rhai::{Dynamic, Engine, Map};
+use rhai::{Array, Dynamic, Engine, Map};
 
 pub(super) fn segments(
     what: &str,
@@ -298,6 +303,57 @@ fn photo_textures(
     rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
 }
 
+fn names(what: &str, list: &Array) -> crate::Result<Vec<String>> {
+    list.iter()
+        .map(|v| {
+            v.clone().into_string().map_err(|t| Error::Invalid(format!("{what}: expected names (strings), got {t}")))
+        })
+        .collect()
+}
+
+fn record_value<T: serde::Serialize>(run: &RunRef, what: &str, value: &T) -> crate::Result<Dynamic> {
+    let v = serde_json::to_value(value).map_err(|e| Error::Invalid(e.to_string()))?;
+    run.borrow_mut().recorded.insert(what.into(), v.clone());
+    rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
+}
+
+/// `own_materials(s, objects)`: the copies made, recorded as `own_materials`.
+fn own(run: &RunRef, scene: &mut SceneHandle, objects: &Array) -> crate::Result<Dynamic> {
+    let done = own_materials(&mut scene.0, &names("own_materials", objects)?)?;
+    record_value(run, "own_materials", &done)
+}
+
+/// `join_alike_materials(s, segments, materials, #{tolerance, name})`: the listed materials the segments show
+/// alike (albedo within `tolerance`, 0.25, of the most seen's; a segment's pixels: its mask's sum) and those
+/// they do not show, joined into one named `name` ("wall"), recorded as `joined_materials` (() where nothing
+/// was joined).
+fn join_alike(run: &RunRef, scene: &mut SceneHandle, map: &Map, group: &Array, opts: &Map) -> crate::Result<Dynamic> {
+    const WHAT: &str = "join_alike_materials";
+    let (mut tolerance, mut name) = (0.25f32, "wall".to_string());
+    for (k, v) in opts {
+        match k.as_str() {
+            "tolerance" => tolerance = option_number(WHAT, k, v)?.max(0.0) as f32,
+            "name" => {
+                name = v
+                    .clone()
+                    .into_string()
+                    .map_err(|t| Error::Invalid(format!("{WHAT}: name must be a string, got {t}")))?
+            }
+            other => return Err(Error::Invalid(format!("{WHAT}: unknown option '{other}' (tolerance, name)"))),
+        }
+    }
+    let mut seen = vec![];
+    for (segment, mask) in map {
+        let mask = mask
+            .clone()
+            .try_cast::<Tensor>()
+            .ok_or_else(|| Error::Invalid(format!("{WHAT}: the segment '{segment}' is not a mask (a tensor)")))?;
+        seen.push((segment.to_string(), mask.value().data.iter().map(|&v| v as f64).sum::<f64>()));
+    }
+    let done = join_alike_materials(&mut scene.0, &seen, &names(WHAT, group)?, tolerance, &name)?;
+    record_value(run, "joined_materials", &done)
+}
+
 fn segments_of(scene: &SceneHandle, obs: &ObsHandle, opts: &Map) -> crate::Result<Map> {
     let mut min_pixels = 20usize;
     for (k, v) in opts {
@@ -366,6 +422,17 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
         "photo_textures",
         move |s: &mut SceneHandle, photo: Tensor, segments: Map, opts: Map| -> Rr<Dynamic> {
             photo_textures(&r, s, &photo, &segments, &opts).map_err(rhai_err)
+        },
+    );
+    let r = run.clone();
+    engine.register_fn("own_materials", move |s: &mut SceneHandle, objects: Array| -> Rr<Dynamic> {
+        own(&r, s, &objects).map_err(rhai_err)
+    });
+    let r = run.clone();
+    engine.register_fn(
+        "join_alike_materials",
+        move |s: &mut SceneHandle, segments: Map, materials: Array, opts: Map| -> Rr<Dynamic> {
+            join_alike(&r, s, &segments, &materials, &opts).map_err(rhai_err)
         },
     );
     let r = run.clone();

@@ -34,6 +34,7 @@ pub use materials::{
 };
 pub use materials::{divide_albedos, search_light_scale, Division, LightScale, LightScaleOptions, Segment};
 pub use materials::{fit_graph_to_crop, GraphFit, GraphFitOptions};
+pub use materials::{join_alike_materials, own_materials, JoinedMaterials, OwnMaterial};
 pub use materials::{texture_surfaces, Registration, RegistrationOptions, SurfaceTexture, SurfaceTextureOptions};
 pub use materials::{texture_view, texture_view_backward, Mips, UvGrid};
 pub use objects::{

@@ -5,7 +5,8 @@
 //! (`material_search`, through `texture_view`) and fitted to it (`graph_fit`), and applied to the surfaces that
 //! show a texture (`surface_textures`), registered on the surface's pixels (`texture_registration`); a retrieved model's own pictures go back on
 //! its parts where they are closer to the photo than the fitted constant (`object_pictures`); a plane whose
-//! texture the library does not reproduce takes the photo's own pattern (`photo_textures`).
+//! texture the library does not reproduce takes the photo's own pattern (`photo_textures`); each wall gets a
+//! material of its own, joined back where the photo shows them alike (`own_materials`).
 
 mod albedo_division;
 mod geometry_agreement;
@@ -15,6 +16,7 @@ mod material_search;
 mod material_segments;
 mod object_pictures;
 mod offset_correlation;
+mod own_materials;
 mod photo_textures;
 mod surface_textures;
 mod texture_registration;
@@ -30,6 +32,7 @@ pub use material_search::{
 };
 pub use material_segments::material_segments;
 pub use object_pictures::{apply_object_pictures, ObjectPicture, ObjectPictureOptions};
+pub use own_materials::{join_alike_materials, own_materials, JoinedMaterials, OwnMaterial};
 pub use photo_textures::{apply_photo_textures, plane_map, PhotoTexture, PhotoTextureOptions, PlaneMap};
 pub use surface_textures::{texture_surfaces, SurfaceTexture, SurfaceTextureOptions};
 pub use texture_registration::{Registration, RegistrationOptions};
