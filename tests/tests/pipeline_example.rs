@@ -143,4 +143,18 @@ fn the_example_photo_becomes_a_scene_close_to_its_truth() {
     let removed = result["recorded"]["lights_removed"].as_array().expect("lights_removed in result.json");
     let first = removed[0]["removed"][0].as_str().unwrap();
     assert!(html.contains("Lights the fit removed") && html.contains(first), "{removed:?}");
+    // Every material with what it is and the decisions behind it: the walls, each its own material first,
+    // joined back where the photo shows them alike (or kept apart), in result.json and on the page.
+    let joined = &result["recorded"]["joined_materials"];
+    assert!(joined["members"].as_array().is_some_and(|m| !m.is_empty()), "joined_materials: {joined}");
+    let materials = result_materials(&out);
+    assert!(html.contains(&format!("Materials: {materials} (")), "materials table");
+    assert!(html.contains("one material for wall_"), "the walls' decision on the page");
+}
+
+/// The number of materials of the run's fitted scene.
+fn result_materials(out: &std::path::Path) -> usize {
+    let scene: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("scene.json")).unwrap()).unwrap();
+    scene["materials"].as_array().unwrap().len()
 }

@@ -1,7 +1,8 @@
 //! The top of `report.html`: the photo, the final render and their difference side by side, the evaluation
 //! against a truth when the run had one (`--set truth=...`), the fitted emitters (lights, windows) with
 //! their radiances and sky gradients, the lights each fit removed or the placement merged (`lights_removed` in
-//! result.json), whether the windows' daylight was shaped by direction (`window_sky`), and
+//! result.json), whether the windows' daylight was shaped by direction (`window_sky`), the materials and
+//! the decisions behind them (`material_table`), and
 //! the camera's side of the photo: its exposure and white balance, which psdr absorbs into the lights (the
 //! light-scale search's factor per channel), and the share of clipped pixels the photometric fits left out.
 
@@ -143,6 +144,7 @@ pub fn build_summary(out: &Path, photo: &Path, render: &Path, scene: &Scene, rec
             rows,
         });
     }
+    summary.tables.push(super::material_table::material_table(scene, recorded));
     let camera = camera_rows(photo.as_ref(), recorded);
     if !camera.is_empty() {
         summary.tables.push(SummaryTable {
