@@ -1,4 +1,4 @@
-//! A material per wall (`stages::own_materials`, the start of room.rhai's material stage), on the
+//! A material per wall (`stages::own_materials`, room.rhai's light stage at its second pass), on the
 //! known-geometry room whose left wall is painted blue beside cream ones: with the room box's one "wall"
 //! material the division can only find a colour between the two (the blue wall's albedo far off); with a
 //! material per wall, divided out and joined back where alike (`join_alike_materials`, room.rhai's
@@ -55,7 +55,7 @@ fn segments(s: &Scene, photo: &Frame) -> Vec<Segment> {
     out
 }
 
-/// room.rhai's first steps: a material per wall, one albedo division of the walls, the alike joined back.
+/// room.rhai's steps: a material per wall, an albedo division of the walls, the alike joined back.
 fn split_divide_join(s: &mut Scene, photo: &Frame, division: &Division) -> JoinedMaterials {
     let walls: Vec<String> = WALLS.map(String::from).to_vec();
     let copies = own_materials(s, &walls).unwrap();
