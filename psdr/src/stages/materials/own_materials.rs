@@ -1,4 +1,4 @@
-//! A material per surface (the "each wall, the floor and the ceiling get their own material"): the
+//! A material per surface, where the photo shows the surfaces unlike: the
 //! room box starts with one "wall" material on its four walls, and a tiled or papered wall beside painted ones
 //! needs each wall its own (`own_materials`). Once each is divided out of the photo, the walls the photo
 //! shows alike (and those it does not show) are one material again (`join_alike_materials`): fitted alone,
