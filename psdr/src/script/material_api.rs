@@ -237,9 +237,7 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
     let library = library_textures(library_size)?;
     let found =
         on_backend(run, what, |b| texture_surfaces(b, &mut scene.0, &photo, detail.as_ref(), &segs, &library, &o))?;
-    let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
-    run.borrow_mut().recorded.insert("surface_textures".into(), v.clone());
-    rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
+    record_value(run, "surface_textures", &found)
 }
 
 fn pictures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<Dynamic> {
@@ -262,9 +260,7 @@ fn pictures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
     }
     let (photo, segs) = segments(what, scene, photo, map)?;
     let found = on_backend(run, what, |b| apply_object_pictures(b, &mut scene.0, &photo, &segs, &o))?;
-    let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
-    run.borrow_mut().recorded.insert(what.into(), v.clone());
-    rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
+    record_value(run, what, &found)
 }
 
 fn photo_textures(
@@ -298,11 +294,10 @@ fn photo_textures(
     }
     let (photo, segs) = segments(what, scene, photo, map)?;
     let done = on_backend(run, what, |b| apply_photo_textures(b, &mut scene.0, &photo, detail.as_ref(), &segs, &o))?;
-    let v = serde_json::to_value(&done).map_err(|e| Error::Invalid(e.to_string()))?;
-    run.borrow_mut().recorded.insert(what.into(), v.clone());
-    rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
+    record_value(run, what, &done)
 }
 
+/// A script's array of names.
 fn names(what: &str, list: &Array) -> crate::Result<Vec<String>> {
     list.iter()
         .map(|v| {
@@ -311,6 +306,7 @@ fn names(what: &str, list: &Array) -> crate::Result<Vec<String>> {
         .collect()
 }
 
+/// `value` recorded in result.json under `what` and returned to the script.
 fn record_value<T: serde::Serialize>(run: &RunRef, what: &str, value: &T) -> crate::Result<Dynamic> {
     let v = serde_json::to_value(value).map_err(|e| Error::Invalid(e.to_string()))?;
     run.borrow_mut().recorded.insert(what.into(), v.clone());
