@@ -33,6 +33,7 @@ pub use materials::{
     view_at, LibraryTexture, MaterialEncoder, MaterialMatch,
 };
 pub use materials::{divide_albedos, search_light_scale, Division, LightScale, LightScaleOptions, Segment};
+pub use materials::{fit_gloss, GlossCandidate, GlossChoice, GlossOptions};
 pub use materials::{fit_graph_to_crop, GraphFit, GraphFitOptions};
 pub use materials::{join_alike_materials, own_materials, JoinedMaterials, OwnMaterial};
 pub use materials::{texture_surfaces, Registration, RegistrationOptions, SurfaceTexture, SurfaceTextureOptions};

@@ -6,10 +6,12 @@
 //! show a texture (`surface_textures`), registered on the surface's pixels (`texture_registration`); a retrieved model's own pictures go back on
 //! its parts where they are closer to the photo than the fitted constant (`object_pictures`); a plane whose
 //! texture the library does not reproduce takes the photo's own pattern (`photo_textures`); each wall gets a
-//! material of its own, joined back where the photo shows them alike (`own_materials`).
+//! material of its own, joined back where the photo shows them alike (`own_materials`); a segment whose
+//! pixels a specular lobe reproduces clearly better than a matte surface gets one (`gloss_fit`).
 
 mod albedo_division;
 mod geometry_agreement;
+mod gloss_fit;
 mod graph_fit;
 mod light_scale_bounces;
 mod material_search;
@@ -25,6 +27,7 @@ mod texture_view;
 pub(crate) use albedo_division::ALBEDO_RANGE;
 pub use albedo_division::{divide_albedos, search_light_scale, Division, LightScale, LightScaleOptions, Segment};
 pub use geometry_agreement::{agreeing_blocks, geometry_agreement};
+pub use gloss_fit::{fit_gloss, GlossCandidate, GlossChoice, GlossOptions};
 pub use graph_fit::{fit_graph_to_crop, GraphFit, GraphFitOptions};
 pub use material_search::{
     contrast, library_textures, search_materials, search_materials_on, search_materials_with, transformed_view,
