@@ -22,6 +22,9 @@
 //! `photo_textures(s, photo, segments, #{spp, window, max_ratio, max_size, erode, detail})` gives each segment
 //! whose material is one plane the photo's own pattern as its albedo texture around the fitted constant
 //! (`stages::photo_textures`), recorded as `photo_textures` and returned.
+//! `fit_gloss(s, photo, segments, #{spp, roughness, specular, min_gain, block, min_pixels})` gives each segment
+//! whose pixels a specular lobe reproduces clearly better than a matte surface that lobe (`roughness` the
+//! candidate roughnesses; `stages::gloss_fit`), the rest matte; recorded as `gloss` and returned.
 //! `own_materials(s, objects)` gives each listed object's parts a material of their own where they share one
 //! (the room's four walls), and `join_alike_materials(s, segments, materials, #{tolerance, name})` joins those
 //! the segments show alike, and those they do not show, back into one (`stages::own_materials`); both
@@ -33,9 +36,9 @@ use super::vision_api::ObsHandle;
 use crate::error::Error;
 use crate::loss::{Image, Tensor};
 use crate::stages::{
-    agreeing_blocks, apply_object_pictures, apply_photo_textures, divide_albedos, geometry_agreement,
+    agreeing_blocks, apply_object_pictures, apply_photo_textures, divide_albedos, fit_gloss, geometry_agreement,
     join_alike_materials, library_textures, material_segments, own_materials, search_light_scale, texture_surfaces,
-    Division, LightFitOptions, LightScaleOptions, ObjectPictureOptions, PhotoTextureOptions, Segment,
+    Division, GlossOptions, LightFitOptions, LightScaleOptions, ObjectPictureOptions, PhotoTextureOptions, Segment,
     SurfaceTextureOptions,
 };
 use rhai::{Array, Dynamic, Engine, Map};
@@ -263,6 +266,37 @@ fn pictures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
     record_value(run, what, &found)
 }
 
+fn gloss(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, opts: &Map) -> crate::Result<Dynamic> {
+    let what = "fit_gloss";
+    let mut o = GlossOptions::default();
+    for (k, v) in opts {
+        if k == "roughness" {
+            let list = v
+                .clone()
+                .into_typed_array::<f64>()
+                .map_err(|t| Error::Invalid(format!("{what}: roughness is a list of numbers, got {t}")))?;
+            o.roughness = list.into_iter().map(|r| r as f32).collect();
+            continue;
+        }
+        let n = option_number(what, k, v)?;
+        match k.as_str() {
+            "spp" => o.spp = n.max(1.0) as u32,
+            "specular" => o.specular = n as f32,
+            "min_gain" => o.min_gain = n.clamp(0.0, 1.0) as f32,
+            "block" => o.block = n.clamp(1.0, 64.0) as usize,
+            "min_pixels" => o.min_pixels = n.max(0.0) as f32,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "{what}: unknown option '{other}' (spp, roughness, specular, min_gain, block, min_pixels)"
+                )))
+            }
+        }
+    }
+    let (photo, segs) = segments(what, scene, photo, map)?;
+    let found = on_backend(run, what, |b| fit_gloss(b, &mut scene.0, &photo, &segs, &o))?;
+    record_value(run, "gloss", &found)
+}
+
 fn photo_textures(
     run: &RunRef,
     scene: &mut SceneHandle,
@@ -411,6 +445,13 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
         "object_pictures",
         move |s: &mut SceneHandle, photo: Tensor, segments: Map, opts: Map| -> Rr<Dynamic> {
             pictures(&r, s, &photo, &segments, &opts).map_err(rhai_err)
+        },
+    );
+    let r = run.clone();
+    engine.register_fn(
+        "fit_gloss",
+        move |s: &mut SceneHandle, photo: Tensor, segments: Map, opts: Map| -> Rr<Dynamic> {
+            gloss(&r, s, &photo, &segments, &opts).map_err(rhai_err)
         },
     );
     let r = run.clone();
