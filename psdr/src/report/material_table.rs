@@ -1,7 +1,7 @@
 //! The report's materials: every material of the fitted scene with what it is (a constant albedo, a library
 //! material and its tint, a texture) and why, from the decisions the material stage recorded in result.json:
-//! the walls joined or kept apart (`joined_materials`), the texture search (`surface_textures`), a model's
-//! own look (`object_pictures`) and the photo's own pattern (`photo_textures`). So a user sees which surfaces
+//! the walls joined or kept apart (`joined_materials`), gloss or matte (`gloss`), a model's own look
+//! (`object_pictures`), the texture search (`surface_textures`) and the photo's own pattern (`photo_textures`). So a user sees which surfaces
 //! the fit modelled beyond a colour, and which it left plain on purpose.
 
 use super::summary::SummaryTable;
@@ -61,9 +61,12 @@ fn decisions(name: &str, recorded: &Map<String, Value>) -> Vec<String> {
             out.push(format!("a wall of its own (unlike the others{d})"));
         }
     }
-    for (record, key) in
-        [("surface_textures", "decision"), ("object_pictures", "decision"), ("photo_textures", "decision")]
-    {
+    for (record, key) in [
+        ("gloss", "decision"),
+        ("object_pictures", "decision"),
+        ("surface_textures", "decision"),
+        ("photo_textures", "decision"),
+    ] {
         let entries = recorded.get(record).and_then(Value::as_array).into_iter().flatten();
         for e in entries.filter(|e| e["material"] == name) {
             if let Some(d) = e[key].as_str().filter(|d| !d.is_empty()) {
@@ -88,7 +91,8 @@ mod tests {
         let recorded: Map<String, Value> = serde_json::from_str(
             r#"{ "joined_materials": { "material": "wall", "members": ["wall_x1", "wall_z0"], "apart": ["wall_x0"],
                                        "distances": [["wall_x0", 0.51], ["wall_x1", 0.0]] },
-                 "surface_textures": [ { "material": "wall", "decision": "contrast 0.02 under 0.05: homogeneous" } ] }"#,
+                 "surface_textures": [ { "material": "wall", "decision": "contrast 0.02 under 0.05: homogeneous" } ],
+                 "gloss": [ { "material": "wall_x0", "decision": "glossy: roughness 0.20" } ] }"#,
         )
         .unwrap();
         let t = material_table(&scene, &recorded);
@@ -98,7 +102,10 @@ mod tests {
         assert!(
             t.rows[0][3].starts_with("one material for wall_x1, wall_z0") && t.rows[0][3].contains("contrast 0.02")
         );
-        assert_eq!(t.rows[1][3], "a wall of its own (unlike the others: 0.51 from the most seen one)");
+        assert_eq!(
+            t.rows[1][3],
+            "a wall of its own (unlike the others: 0.51 from the most seen one); glossy: roughness 0.20"
+        );
         assert!(material_table(&scene, &Map::new()).rows.iter().all(|r| r[3].is_empty()));
     }
 }
