@@ -5,7 +5,8 @@
 use crate::rooms::{room_scene, FurnitureBox, RoomSpec};
 use glam::{Vec2, Vec3};
 use psdr::render::{render_cpu, Frame, SceneData};
-use psdr::scene::{save_scene, Emitter, Material, RenderSettings, Scene};
+use psdr::scene::{save_scene, Emitter, Material, Object, RenderSettings, Scene};
+use psdr::stages::Segment;
 use psdr::vision::{canonical_class, Instance, Instances};
 use std::path::Path;
 
@@ -71,6 +72,24 @@ pub fn id_frame(s: &Scene) -> Frame {
     let mut s = s.clone();
     s.settings = RenderSettings { spp: 1, max_depth: 1, rr_depth: 1, seed: 0 };
     render_cpu(&SceneData::build(&s).unwrap(), &s.settings, &|_, _| {})
+}
+
+/// Per material the pixels of `photo` (a render of `s`) that show an object `keep` accepts, as a segmenter's
+/// masks would give them through the truth's object ids; a material shown on fewer than 20 pixels is left out.
+pub fn truth_segments(s: &Scene, photo: &Frame, keep: impl Fn(&Object) -> bool) -> Vec<Segment> {
+    let mut out: Vec<Segment> = vec![];
+    for (o, obj) in s.objects.iter().enumerate().filter(|(_, obj)| keep(obj)) {
+        let m = obj.parts[0].material;
+        let mask: Vec<f32> = photo.object_id.iter().map(|&id| f32::from(u8::from(id as usize == o))).collect();
+        if mask.iter().sum::<f32>() < 20.0 {
+            continue;
+        }
+        match out.iter_mut().find(|x| x.material == m) {
+            Some(seg) => seg.mask.iter_mut().zip(&mask).for_each(|(a, b)| *a = a.max(*b)),
+            None => out.push(Segment { material: m, mask }),
+        }
+    }
+    out
 }
 
 /// The segmentation of `truth`'s frame `f`: each object named in `ids` covers its pixels with its id, its

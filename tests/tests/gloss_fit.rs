@@ -14,7 +14,7 @@ use psdr::scene::{Color, Scalar, Scene};
 use psdr::stages::{
     divide_albedos, fit_gloss, relative_rmse_downsampled, Division, GlossChoice, GlossOptions, Segment,
 };
-use psdr_tests::known_geometry::truth_room;
+use psdr_tests::known_geometry::{truth_room, truth_segments};
 
 fn render(s: &Scene, spp: u32) -> Frame {
     let mut settings = s.settings.clone();
@@ -22,24 +22,8 @@ fn render(s: &Scene, spp: u32) -> Frame {
     render_cpu(&SceneData::build(s).unwrap(), &settings, &|_, _| {})
 }
 
-/// Per material the photo's pixels showing an object of it (a segmenter's masks, through the truth's ids).
 fn segments(s: &Scene, photo: &Frame) -> Vec<Segment> {
-    let mut out: Vec<Segment> = vec![];
-    for (o, obj) in s.objects.iter().enumerate() {
-        if obj.emitter.is_some() {
-            continue;
-        }
-        let m = obj.parts[0].material;
-        let mask: Vec<f32> = photo.object_id.iter().map(|&id| f32::from(u8::from(id as usize == o))).collect();
-        if mask.iter().sum::<f32>() < 20.0 {
-            continue;
-        }
-        match out.iter_mut().find(|x| x.material == m) {
-            Some(seg) => seg.mask.iter_mut().zip(&mask).for_each(|(a, b)| *a = a.max(*b)),
-            None => out.push(Segment { material: m, mask }),
-        }
-    }
-    out
+    truth_segments(s, photo, |o| o.emitter.is_none())
 }
 
 fn material(s: &Scene, name: &str) -> usize {

@@ -13,7 +13,7 @@ use psdr::scene::{Color, Material, Scene};
 use psdr::stages::{
     divide_albedos, join_alike_materials, own_materials, relative_rmse_downsampled, Division, JoinedMaterials, Segment,
 };
-use psdr_tests::known_geometry::truth_room;
+use psdr_tests::known_geometry::{truth_room, truth_segments};
 
 const WALLS: [&str; 4] = ["wall_x0", "wall_x1", "wall_z0", "wall_z1"];
 
@@ -34,25 +34,10 @@ fn albedo_of(s: &Scene, object_name: &str) -> Vec3 {
     a
 }
 
-/// Per material the photo's pixels showing an object of it (a segmenter's masks, through the truth's ids).
+/// The walls', floor's, ceiling's and furniture's segments (the lights left out).
 fn segments(s: &Scene, photo: &Frame) -> Vec<Segment> {
     let structure = ["floor", "ceiling", "cabinet_7", "table_8"];
-    let mut out: Vec<Segment> = vec![];
-    for (o, obj) in s.objects.iter().enumerate() {
-        if !WALLS.contains(&obj.name.as_str()) && !structure.contains(&obj.name.as_str()) {
-            continue;
-        }
-        let m = obj.parts[0].material;
-        let mask: Vec<f32> = photo.object_id.iter().map(|&id| f32::from(u8::from(id as usize == o))).collect();
-        if mask.iter().sum::<f32>() < 20.0 {
-            continue;
-        }
-        match out.iter_mut().find(|x| x.material == m) {
-            Some(seg) => seg.mask.iter_mut().zip(&mask).for_each(|(a, b)| *a = a.max(*b)),
-            None => out.push(Segment { material: m, mask }),
-        }
-    }
-    out
+    truth_segments(s, photo, |o| WALLS.contains(&o.name.as_str()) || structure.contains(&o.name.as_str()))
 }
 
 /// room.rhai's steps: a material per wall, an albedo division of the walls, the alike joined back.
