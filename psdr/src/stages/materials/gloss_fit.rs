@@ -78,8 +78,8 @@ pub struct GlossChoice {
     pub decision: String,
 }
 
-/// Sums of one segment's blocks for one render pair: per block the weight and the weighted means of the photo,
-/// the diffuse part and the specular part (per channel).
+/// One segment's blocks: per block its weight and the weighted means of the photo (P), the matte render (X) and
+/// the light a lobe adds (Z; zero for the matte fit), per channel.
 struct Blocks {
     weight: Vec<f32>,
     photo: Vec<Vec3>,
