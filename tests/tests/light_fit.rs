@@ -157,7 +157,8 @@ fn candidates_avoid_the_view_and_fit_a_light_they_do_not_contain() {
     assert!(names.contains(&"light_behind_camera".to_string()));
     // The camera looks at wall_z0 (the back wall) and sees both side walls; the wall behind it is unseen.
     assert!(
-        names.contains(&"light_window_wall_z1".to_string()) && !names.contains(&"light_window_wall_z0".to_string()),
+        names.iter().any(|n| n.starts_with("light_window_wall_z1"))
+            && !names.iter().any(|n| n.starts_with("light_window_wall_z0")),
         "{names:?}"
     );
     assert!(room.objects.iter().filter(|o| o.emitter.is_some()).count() == names.len());
@@ -564,4 +565,62 @@ fn a_ceiling_light_cut_by_the_frame_is_placed_out_of_view_only() {
     assert!((lo.z + 0.6).abs() < 0.05, "the far edge stays on the panel's: {lo}");
     assert!((lo.x + 0.6).abs() < 0.05 && (hi.x - 0.6).abs() < 0.05, "the sides stay on the panel's: {lo} .. {hi}");
     assert!(hi.z > hi0.z + 0.05 && hi.z < 0.9, "the near side grows out of view towards 0.6: {hi0} -> {hi}");
+}
+
+/// A window the photo does not show, on a side wall near the back corner, lights the floor and the back wall
+/// beside it. The candidates' one window at that wall's middle, 2 m from it, is not what the elimination keeps
+/// (it keeps a ceiling light and the window behind the camera, relative error 0.195); after the choice
+/// `add_unseen_window` tries a row along each unseen wall (one per 1.5 m) beside the kept lights and adds the
+/// one by the corner, 0.5 m from the window, and after the placement the window is within 0.5 m of it
+/// (measured 0.45: the window behind the camera, kept, shares its light) and the error is 0.056, under half the
+/// choice's. In the room without the window the best of the row gains 0.3 points of error, and none is added.
+#[test]
+fn an_unseen_window_near_a_corner_is_found_along_its_wall() {
+    use psdr::stages::{
+        add_unseen_window, init_lights, refine_light_placement, LightInitOptions, LightPlacementOptions,
+        UnseenWindowOptions,
+    };
+    // Looking right from near the left wall, which the frame leaves out; the window in it 1 m from the back.
+    let r = RoomSpec { w: 5.0, d: 6.0, h: 2.7, cam: Vec3::new(-1.5, 1.5, 2.0), yaw: -35.0, pitch: -10.0, fov: 60.0 };
+    let at = Vec3::new(-2.49, 1.4, -2.0);
+    let (_, _, photo, mut room) = window_photo(&r, at, true, 128);
+    for o in room.objects.iter_mut() {
+        // The walls as the room stage names them.
+        let name = ["back", "front", "left", "right"]
+            .iter()
+            .zip(["z0", "z1", "x0", "x1"])
+            .find(|(w, _)| o.name == format!("wall_{w}"));
+        if let Some((_, id)) = name {
+            o.name = format!("wall_{id}");
+        }
+    }
+    let fit_opts = LightFitOptions { spp: 32, ..Default::default() };
+    let names = init_lights(&mut room, &LightInitOptions::default());
+    assert!(names.contains(&"light_window_wall_x0".to_string()), "the left wall is in view: {names:?}");
+    let fit = fit_lights(&mut CpuBackend, &room, &names, &photo, &[], &fit_opts).unwrap();
+    let kept: Vec<&String> = fit.names.iter().zip(&fit.kept).filter(|(_, k)| **k).map(|(n, _)| n).collect();
+    room.objects.retain(|o| o.emitter.is_none() || kept.contains(&&o.name));
+    let unseen = UnseenWindowOptions { fit: fit_opts.clone(), ..Default::default() };
+    let added = add_unseen_window(&mut CpuBackend, &mut room, &photo, &[], &unseen).unwrap();
+    eprintln!("kept {kept:?} ({:.4}); {added:?}", fit.relative_rms);
+    let window = added.added.clone().expect("no window added");
+    assert!(window.starts_with("light_window_wall_x0_"), "{window}");
+    let opts = LightPlacementOptions { render: fit_opts.clone(), ..Default::default() };
+    let placed = refine_light_placement(&mut CpuBackend, &mut room, &photo, &[], &opts).unwrap();
+    let got = room.objects.iter().find(|o| o.name == window).unwrap().pose.translation;
+    eprintln!("{window} at {got}, {:.3} m from the window; {placed:?}", (got - at).length());
+    assert!((got - at).length() < 0.5, "{window} at {got}, the window at {at}");
+    assert!(placed.relative_rms_after < 0.5 * fit.relative_rms, "{placed:?} against the choice's {}", fit.relative_rms);
+    // The same step in the room without the window (lit by its ceiling light alone; the pane below the floor)
+    // adds none.
+    let (_, _, plain_photo, _) = window_photo(&r, Vec3::new(-2.49, -5.0, -2.0), true, 128);
+    let mut plain = room.clone();
+    plain.objects.retain(|o| o.emitter.is_none());
+    let names = init_lights(&mut plain, &LightInitOptions::default());
+    let fit = fit_lights(&mut CpuBackend, &plain, &names, &plain_photo, &[], &fit_opts).unwrap();
+    let kept: Vec<&String> = fit.names.iter().zip(&fit.kept).filter(|(_, k)| **k).map(|(n, _)| n).collect();
+    plain.objects.retain(|o| o.emitter.is_none() || kept.contains(&&o.name));
+    let none = add_unseen_window(&mut CpuBackend, &mut plain, &plain_photo, &[], &unseen).unwrap();
+    eprintln!("without a window: kept {kept:?}; {none:?}");
+    assert!(none.added.is_none(), "{none:?}");
 }

@@ -8,7 +8,8 @@
 //! fit the photo best (`stages::ceiling_search`), recorded as `ceiling_search`. `outline_lights(s, obs)`
 //! refits the outlines of the lights the photo shows at their fitted radiances, recorded as `light_outlines`.
 //! `fit_window_skies(s, photo, opts)` fits the visible windows' daylight shaped by direction
-//! (`stages::window_sky`), recorded as `window_sky`.
+//! (`stages::window_sky`), recorded as `window_sky`. `add_unseen_window(s, photo, opts)` adds a window on a wall
+//! the photo does not show where the photo needs one (`stages::unseen_window`), recorded as `unseen_window`.
 
 use super::api_support::{check_photo, on_backend, option_number, rhai_err, Rr, RunRef};
 use super::scene_api::SceneHandle;
@@ -16,8 +17,9 @@ use super::vision_api::ObsHandle;
 use crate::error::Error;
 use crate::loss::Tensor;
 use crate::stages::{
-    fit_lights, fit_window_skies, init_lights, refine_light_placement, search_ceiling_height, Agreement,
-    CeilingSearchOptions, LightFitOptions, LightInitOptions, LightPlacementOptions, WindowSkyOptions,
+    add_unseen_window, fit_lights, fit_window_skies, init_lights, refine_light_placement, search_ceiling_height,
+    Agreement, CeilingSearchOptions, LightFitOptions, LightInitOptions, LightPlacementOptions, UnseenWindowOptions,
+    WindowSkyOptions,
 };
 use glam::Vec3;
 use rhai::{Array, Dynamic, Engine, Map};
@@ -87,9 +89,10 @@ fn lights_init(scene: &mut SceneHandle, opts: &Map) -> crate::Result<Array> {
             "cell" => o.cell = n.max(0.1),
             "scale" => o.scale = n.clamp(0.01, 1.0),
             "unseen_wall_fraction" => o.unseen_wall_fraction = n,
+            "window_cell" => o.window_cell = n,
             other => {
                 return Err(Error::Invalid(format!(
-                    "lights_init: unknown option '{other}' (cell, scale, unseen_wall_fraction)"
+                    "lights_init: unknown option '{other}' (cell, scale, unseen_wall_fraction, window_cell)"
                 )))
             }
         }
@@ -201,6 +204,42 @@ fn window_skies(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Ma
     let found = on_backend(run, WHAT, |b| fit_window_skies(b, &mut scene.0, &windows, &img.data, &segments, &o))?;
     let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
     run.borrow_mut().recorded.insert("window_sky".into(), v.clone());
+    rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
+}
+
+/// `add_unseen_window(s, photo, #{spp, downsample, white, tint_prior, segments, window_cell, min_gain})`: a
+/// row of windows along each wall the photo does not show tried beside the scene's lights, the best added
+/// where it lowers the fit's relative error by `min_gain` (`stages::unseen_window`). Recorded as
+/// `unseen_window`; returns the record.
+fn unseen_window(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> crate::Result<Dynamic> {
+    const WHAT: &str = "add_unseen_window";
+    let mut o = UnseenWindowOptions::default();
+    let segments = surface_masks(WHAT, scene, photo, opts)?;
+    o.fit.white = flag(WHAT, opts, "white")?;
+    o.fit.agreement = agreement(WHAT, scene, opts)?;
+    for (k, v) in opts.iter().filter(|(k, _)| !SHARED_KEYS.contains(&k.as_str())) {
+        let n = number(k, v, WHAT)?;
+        match k.as_str() {
+            "downsample" => o.fit.downsample = n.max(1.0) as usize,
+            "spp" => o.fit.spp = n.max(1.0) as u32,
+            "max_depth" => o.fit.max_depth = Some(n.max(1.0) as u32),
+            "seed" => o.fit.seed = n.max(0.0) as u32,
+            "tint_prior" => o.fit.tint_prior = n.max(0.0) as f32,
+            "window_cell" => o.window_cell = n as f32,
+            "min_gain" => o.min_gain = n as f32,
+            other => {
+                return Err(Error::Invalid(format!(
+                    "{WHAT}: unknown option '{other}' (downsample, spp, max_depth, seed, tint_prior, window_cell, \
+                     min_gain, segments, white, agreement, min_agreement)"
+                )))
+            }
+        }
+    }
+    let img = photo.value();
+    check_photo(WHAT, &scene.0, img)?;
+    let found = on_backend(run, WHAT, |b| add_unseen_window(b, &mut scene.0, &img.data, &segments, &o))?;
+    let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
+    run.borrow_mut().recorded.insert("unseen_window".into(), v.clone());
     rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
 }
 
@@ -459,6 +498,10 @@ pub fn register(engine: &mut Engine, run: &RunRef) {
     });
     engine.register_fn("lights_init", |s: &mut SceneHandle, opts: Map| -> Rr<Array> {
         lights_init(s, &opts).map_err(rhai_err)
+    });
+    let r = run.clone();
+    engine.register_fn("add_unseen_window", move |s: &mut SceneHandle, photo: Tensor, opts: Map| -> Rr<Dynamic> {
+        unseen_window(&r, s, &photo, &opts).map_err(rhai_err)
     });
     let r = run.clone();
     engine.register_fn("fit_window_skies", move |s: &mut SceneHandle, photo: Tensor, opts: Map| -> Rr<Dynamic> {

@@ -14,6 +14,7 @@ pub use evaluation::{
     evaluate, image_error_by_surface, mask_ious, noise_and_bias, relative_rmse_downsampled, room_in_camera_frame,
     ssim_luminance, Merged,
 };
+pub use lights::{add_unseen_window, UnseenWindow, UnseenWindowOptions};
 pub use lights::{
     add_visible_ceiling_lights, add_visible_windows, is_edge_ceiling_light, is_visible_ceiling_light, is_visible_light,
     is_visible_window,

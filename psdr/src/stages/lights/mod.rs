@@ -2,7 +2,8 @@
 //! (`ceiling_search`); candidate lights (`light_init`), the windows and ceiling lights the photo shows
 //! (`window_lights`, `ceiling_panels`), their
 //! radiances fitted to the photo with backward elimination (`light_fit`), and their positions and sizes
-//! (`light_placement`), the windows' daylight shaped by direction (`window_sky`), and how each may move when
+//! (`light_placement`), a window the photo does not show where the light falls as from one (`unseen_window`),
+//! the windows' daylight shaped by direction (`window_sky`), and how each may move when
 //! the joint fit moves it by gradient (`light_motion`).
 
 mod albedo_free_split;
@@ -14,6 +15,7 @@ mod light_init;
 mod light_motion;
 mod light_placement;
 mod light_view;
+mod unseen_window;
 mod window_lights;
 mod window_sky;
 
@@ -24,6 +26,7 @@ pub use light_fit::{fit_lights, nnls, Agreement, LightFit, LightFitOptions};
 pub use light_init::{init_lights, LightInitOptions};
 pub use light_motion::{light_motion, LightMotion};
 pub use light_placement::{refine_light_placement, LightPlacement, LightPlacementOptions};
+pub use unseen_window::{add_unseen_window, UnseenWindow, UnseenWindowOptions};
 pub use window_lights::{add_visible_windows, is_visible_window};
 pub use window_sky::{fit_window_skies, WindowSky, WindowSkyOptions};
 
