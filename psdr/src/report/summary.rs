@@ -1,7 +1,8 @@
 //! The top of `report.html`: the photo, the final render and their difference side by side, the evaluation
 //! against a truth when the run had one (`--set truth=...`), the fitted emitters (lights, windows) with
 //! their radiances and sky gradients, the lights each fit removed or the placement merged (`lights_removed` in
-//! result.json), whether the windows' daylight was shaped by direction (`window_sky`), the materials and
+//! result.json), a window added on a wall the photo does not show (`unseen_window`), whether the windows'
+//! daylight was shaped by direction (`window_sky`), the materials and
 //! the decisions behind them (`material_table`), and
 //! the camera's side of the photo: its exposure and white balance, which psdr absorbs into the lights (the
 //! light-scale search's factor per channel), and the share of clipped pixels the photometric fits left out.
@@ -128,6 +129,7 @@ pub fn build_summary(out: &Path, photo: &Path, render: &Path, scene: &Scene, rec
             rows,
         });
     }
+    summary.tables.extend(unseen_window_table(recorded));
     if let Some(Value::Array(fits)) = recorded.get("lights_removed") {
         let rows: Vec<Vec<String>> = fits
             .iter()
@@ -245,6 +247,33 @@ fn flatten(prefix: &str, v: &Map<String, Value>, depth: usize, rows: &mut Vec<Ve
     }
 }
 
+/// The windows tried on the walls the photo does not show (`unseen_window`) and the one added, if any.
+fn unseen_window_table(recorded: &Map<String, Value>) -> Option<SummaryTable> {
+    let u = recorded.get("unseen_window").filter(|u| u["tried"].as_array().is_some_and(|a| !a.is_empty()))?;
+    let pct = |v: &Value| v.as_f64().map_or("-".into(), |v| format!("{:.2} %", 100.0 * v));
+    let added = u["added"].as_str().unwrap_or("");
+    let rows = u["tried"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|t| {
+            let name = t[0].as_str().unwrap_or("");
+            let decision = if name == added { "added" } else { "-" };
+            vec![name.into(), pct(&t[1]), decision.into()]
+        })
+        .collect();
+    Some(SummaryTable {
+        title: format!(
+            "Windows on the walls the photo does not show, tried beside the chosen lights (their error {}; one is \
+             added where it lowers that by the removal threshold): {}",
+            pct(&u["relative_rms_before"]),
+            if added.is_empty() { "none added" } else { added }
+        ),
+        header: ["window", "error with it", "decision"].map(String::from).to_vec(),
+        rows,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -274,6 +303,19 @@ mod tests {
         // The white pixel and its three neighbours in the 4x4 photo.
         assert_eq!(rows[1][1], "25.00 %");
         assert!(camera_rows(None, &Map::new()).is_empty());
+    }
+
+    #[test]
+    fn the_unseen_windows_table_marks_the_one_added() {
+        let recorded: Map<String, Value> = serde_json::from_value(serde_json::json!({"unseen_window": {
+            "tried": [["light_window_wall_x0_0", 0.2], ["light_window_wall_x0_1", 0.25]],
+            "relative_rms_before": 0.25, "added": "light_window_wall_x0_0", "relative_rms_after": 0.2}}))
+        .unwrap();
+        let t = unseen_window_table(&recorded).unwrap();
+        assert!(t.title.ends_with("light_window_wall_x0_0") && t.title.contains("25.00 %"), "{}", t.title);
+        assert_eq!(t.rows[0], vec!["light_window_wall_x0_0".to_string(), "20.00 %".into(), "added".into()]);
+        assert_eq!(t.rows[1][2], "-");
+        assert!(unseen_window_table(&Map::new()).is_none());
     }
 
     #[test]
