@@ -49,8 +49,8 @@ pub struct UnseenWindow {
 }
 
 /// Tries a row of windows along each wall of `scene` the photo does not show beside its emitters (see the
-/// module) and adds the best where it gains `min_gain`; the emitters then have the radiances of the fit with
-/// it. With `segments` (surface masks, may be empty) each surface's albedo is free in the fit, as in
+/// module) and adds the best where it gains `min_gain`, the emitters then at the radiances of the fit with it;
+/// else the scene is left as it was. With `segments` (surface masks, may be empty) each surface's albedo is free in the fit, as in
 /// `fit_lights`. A scene without the room's named surfaces, or whose walls are all in view, is left as it is.
 pub fn add_unseen_window(
     backend: &mut dyn Backend,
@@ -96,7 +96,7 @@ pub fn add_unseen_window(
     let norm = target.norm();
     let rel = |err: f64| (err / norm).sqrt() as f32;
     let kept: Vec<usize> = (0..lights.len()).collect();
-    let (mut radiance, err) = nnls_fit(&basis, &target, &kept);
+    let (_, err) = nnls_fit(&basis, &target, &kept);
     let before = rel(err);
     let mut tried = vec![];
     let mut best: Option<(usize, Vec<[f32; 3]>, f32)> = None;
@@ -110,26 +110,23 @@ pub fn add_unseen_window(
     }
     let mut added = None;
     let mut after = before;
-    let mut window_radiance = None;
     if let Some((j, r, e)) = best.filter(|b| before - b.2 >= opts.min_gain) {
+        // Every emitter at its radiance in the fit with the window (the basis holds the lights first, in their
+        // order, then the row); without one the scene is left exactly as it was.
+        for (k, &o) in lights.iter().enumerate() {
+            set_radiance(scene, o, r[k]);
+        }
         scene.objects.push(row[j].clone());
+        let at = scene.objects.len() - 1;
+        set_radiance(scene, at, r[lights.len() + j]);
         added = Some(row[j].name.clone());
-        window_radiance = Some(r[lights.len() + j]);
-        radiance = r;
         after = e;
     }
-    // Every emitter at its radiance in the chosen fit (the basis holds the lights first, in their order).
-    let added_at = scene.objects.len() - 1;
-    let set = |scene: &mut Scene, o: usize, r: [f32; 3]| {
-        if let Some(e) = scene.objects[o].emitter.as_mut() {
-            e.radiance = Vec3::from(r).max(Vec3::splat(1e-6));
-        }
-    };
-    for (k, &o) in lights.iter().enumerate() {
-        set(scene, o, radiance[k]);
-    }
-    if let Some(r) = window_radiance {
-        set(scene, added_at, r);
-    }
     Ok(UnseenWindow { tried, relative_rms_before: before, added, relative_rms_after: after })
+}
+
+fn set_radiance(scene: &mut Scene, object: usize, radiance: [f32; 3]) {
+    if let Some(e) = scene.objects[object].emitter.as_mut() {
+        e.radiance = Vec3::from(radiance).max(Vec3::splat(1e-6));
+    }
 }
