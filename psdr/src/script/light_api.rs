@@ -160,6 +160,20 @@ fn fit(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Map) -> cra
     Ok(out)
 }
 
+/// Sets the light fit's own number option `k` of `o` (`downsample`, `spp`, `max_depth`, `seed`, `tint_prior`);
+/// false for any other key, which the caller then reads.
+fn fit_number(o: &mut LightFitOptions, k: &str, n: f64) -> bool {
+    match k {
+        "downsample" => o.downsample = n.max(1.0) as usize,
+        "spp" => o.spp = n.max(1.0) as u32,
+        "max_depth" => o.max_depth = Some(n.max(1.0) as u32),
+        "seed" => o.seed = n.max(0.0) as u32,
+        "tint_prior" => o.tint_prior = n.max(0.0) as f32,
+        _ => return false,
+    }
+    true
+}
+
 /// `fit_window_skies(s, photo, #{spp, downsample, white, tint_prior, segments, min_gain, windows})`: the
 /// windows' sky gradients (by default every window the photo shows, `is_visible_window`) fitted with every
 /// light's radiance; kept where they lower the fit's relative error by `min_gain`. Returns the record.
@@ -184,12 +198,10 @@ fn window_skies(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Ma
             continue;
         }
         let n = number(k, v, WHAT)?;
+        if fit_number(&mut o.fit, k, n) {
+            continue;
+        }
         match k.as_str() {
-            "downsample" => o.fit.downsample = n.max(1.0) as usize,
-            "spp" => o.fit.spp = n.max(1.0) as u32,
-            "max_depth" => o.fit.max_depth = Some(n.max(1.0) as u32),
-            "seed" => o.fit.seed = n.max(0.0) as u32,
-            "tint_prior" => o.fit.tint_prior = n.max(0.0) as f32,
             "min_gain" => o.min_gain = n as f32,
             other => {
                 return Err(Error::Invalid(format!(
@@ -219,12 +231,10 @@ fn unseen_window(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &M
     o.fit.agreement = agreement(WHAT, scene, opts)?;
     for (k, v) in opts.iter().filter(|(k, _)| !SHARED_KEYS.contains(&k.as_str())) {
         let n = number(k, v, WHAT)?;
+        if fit_number(&mut o.fit, k, n) {
+            continue;
+        }
         match k.as_str() {
-            "downsample" => o.fit.downsample = n.max(1.0) as usize,
-            "spp" => o.fit.spp = n.max(1.0) as u32,
-            "max_depth" => o.fit.max_depth = Some(n.max(1.0) as u32),
-            "seed" => o.fit.seed = n.max(0.0) as u32,
-            "tint_prior" => o.fit.tint_prior = n.max(0.0) as f32,
             "window_cell" => o.window_cell = n as f32,
             "min_gain" => o.min_gain = n as f32,
             other => {
