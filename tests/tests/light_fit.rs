@@ -571,7 +571,7 @@ fn a_ceiling_light_cut_by_the_frame_is_placed_out_of_view_only() {
 /// beside it. The candidates' one window at that wall's middle, 2 m from it, is not what the elimination keeps
 /// (it keeps a ceiling light and the window behind the camera, relative error 0.195); after the choice
 /// `add_unseen_window` tries a row along each unseen wall (one per 1.5 m) beside the kept lights and adds the
-/// one by the corner, 0.5 m from the window, and after the placement the window is within 0.5 m of it
+/// one by the corner (z -2.25 against the window's -2.0), and after the placement it is within 0.5 m of it
 /// (measured 0.45: the window behind the camera, kept, shares its light) and the error is 0.056, under half the
 /// choice's. In the room without the window the best of the row gains 0.3 points of error, and none is added.
 #[test]

@@ -214,9 +214,7 @@ fn window_skies(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &Ma
     let img = photo.value();
     check_photo(WHAT, &scene.0, img)?;
     let found = on_backend(run, WHAT, |b| fit_window_skies(b, &mut scene.0, &windows, &img.data, &segments, &o))?;
-    let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
-    run.borrow_mut().recorded.insert("window_sky".into(), v.clone());
-    rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
+    record_returned(run, "window_sky", &found)
 }
 
 /// `add_unseen_window(s, photo, #{spp, downsample, white, tint_prior, segments, window_cell, min_gain})`: a
@@ -248,8 +246,13 @@ fn unseen_window(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, opts: &M
     let img = photo.value();
     check_photo(WHAT, &scene.0, img)?;
     let found = on_backend(run, WHAT, |b| add_unseen_window(b, &mut scene.0, &img.data, &segments, &o))?;
-    let v = serde_json::to_value(&found).map_err(|e| Error::Invalid(e.to_string()))?;
-    run.borrow_mut().recorded.insert("unseen_window".into(), v.clone());
+    record_returned(run, "unseen_window", &found)
+}
+
+/// Records `value` in result.json under `key` and returns it to the script.
+fn record_returned(run: &RunRef, key: &str, value: &impl serde::Serialize) -> crate::Result<Dynamic> {
+    let v = serde_json::to_value(value).map_err(|e| Error::Invalid(e.to_string()))?;
+    run.borrow_mut().recorded.insert(key.into(), v.clone());
     rhai::serde::to_dynamic(v).map_err(|e| Error::Invalid(e.to_string()))
 }
 
