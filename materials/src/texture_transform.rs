@@ -114,17 +114,31 @@ impl PreparedTransform {
 
     /// The transformed uv.
     pub fn apply(&self, uv: [f64; 2]) -> [f64; 2] {
+        let r = self.rotate_scale(uv);
+        [r[0] + self.offset[0], r[1] + self.offset[1]]
+    }
+
+    /// The transformed uv before its offset: `apply` is this plus the offset, to the bit (loops over offsets
+    /// for fixed uvs compute it once).
+    pub fn rotate_scale(&self, uv: [f64; 2]) -> [f64; 2] {
         let (s, c) = (self.sin, self.cos);
         let (a, b) = (self.scale[0] * uv[0], self.scale[1] * uv[1]);
-        [c * a - s * b + self.offset[0], s * a + c * b + self.offset[1]]
+        [c * a - s * b, s * a + c * b]
     }
 
     /// Bilinear lookup of every channel at the transformed `uv` into `out` (len = channels).
     pub fn lookup(&self, tex: &TextureView, uv: [f64; 2], out: &mut [f64]) {
-        let fp = tex.footprint(self.apply(uv));
+        tex.lookup(self.apply(uv), out)
+    }
+}
+
+impl TextureView<'_> {
+    /// Bilinear lookup of every channel at an already transformed uv into `out` (len = channels).
+    pub fn lookup(&self, uv: [f64; 2], out: &mut [f64]) {
+        let fp = self.footprint(uv);
         let w = fp.weights();
-        for (ch, o) in out.iter_mut().enumerate().take(tex.channels) {
-            *o = (0..4).map(|k| w[k] * tex.texels[fp.idx[k] + ch] as f64).sum();
+        for (ch, o) in out.iter_mut().enumerate().take(self.channels) {
+            *o = (0..4).map(|k| w[k] * self.texels[fp.idx[k] + ch] as f64).sum();
         }
     }
 }

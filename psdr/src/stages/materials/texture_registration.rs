@@ -183,7 +183,8 @@ impl TexelMips {
     }
 
     /// Trilinear lookup of the luminance at `uv` through `t`, filtered to a footprint of `footprint` texture
-    /// units.
+    /// units (the tests' truth; the registration's loops go through `Probe`).
+    #[cfg(test)]
     fn sample(&self, t: &PreparedTransform, uv: [f64; 2], footprint: f64) -> f64 {
         let mut v = [0.0];
         self.sample_into(t, uv, footprint, &mut v);
@@ -198,23 +199,42 @@ impl TexelMips {
     }
 
     fn sample_into(&self, t: &PreparedTransform, uv: [f64; 2], footprint: f64, out: &mut [f64]) {
+        let (level, f) = self.level(footprint * t.scale()[0].abs());
+        self.trilinear(t.apply(uv), level, f, out);
+    }
+
+    /// The mip level and the blend toward the next for a footprint of `texture_units` (the transform's scale
+    /// applied).
+    fn level(&self, texture_units: f64) -> (usize, f64) {
         let (w0, h0, _) = &self.levels[0];
         let top = self.levels.len() - 1;
-        let lod = (footprint * t.scale()[0].abs() * (*w0.max(h0)) as f64).max(1.0).log2().min(top as f64);
+        let lod = (texture_units * (*w0.max(h0)) as f64).max(1.0).log2().min(top as f64);
         let l = (lod.floor() as usize).min(top);
-        let f = lod - l as f64;
+        (l, lod - l as f64)
+    }
+
+    /// The lookup at a transformed uv on `level`, blended by `f` with the next.
+    fn trilinear(&self, uv: [f64; 2], level: usize, f: f64, out: &mut [f64]) {
         let at = |l: usize, v: &mut [f64]| {
             let (w, h, texels) = &self.levels[l];
-            t.lookup(&TextureView { width: *w, height: *h, channels: self.channels, texels }, uv, v);
+            TextureView { width: *w, height: *h, channels: self.channels, texels }.lookup(uv, v);
         };
-        at(l, out);
-        if f > 0.0 && l < top {
+        at(level, out);
+        if f > 0.0 && level < self.levels.len() - 1 {
             let mut next = [0.0; 3];
             let next = &mut next[..out.len()];
-            at(l + 1, next);
+            at(level + 1, next);
             out.iter_mut().zip(next.iter()).for_each(|(a, b)| *a = (1.0 - f) * *a + f * b);
         }
     }
+}
+
+/// One block's lookup with the offset left out: its uv rotated and scaled, its mip level and blend
+/// (`Groups::fit` scores many offsets of one rotation and scale; the same operations as `TexelMips::sample`).
+struct Probe {
+    uv: [f64; 2],
+    level: usize,
+    blend: f64,
 }
 
 /// One transform's fit: per object its best offset and correlation terms.
@@ -275,15 +295,28 @@ impl Groups {
         [scale * (cos * c[0] - sin * c[1]), scale * (sin * c[0] + cos * c[1])]
     }
 
-    /// (covariance with the photo, the texture's sum of squares about its mean) of object group `g` at `t`.
-    /// `blur`: the least footprint, in texture units (see `fit`).
-    fn terms(&self, g: usize, cells: &Cells, mips: &TexelMips, t: &TextureTransform, blur: f64) -> (f64, f64) {
-        let least = blur / t.scale[0].abs().max(1e-9);
-        let t = &t.prepared();
+    /// Group `g`'s blocks under rotation and scale `t` (its offset left out), each filtered to at least `blur`
+    /// texture units (see `fit`).
+    fn probes(&self, g: usize, cells: &Cells, mips: &TexelMips, t: &PreparedTransform, blur: f64) -> Vec<Probe> {
+        let least = blur / t.scale()[0].abs().max(1e-9);
+        self.members[g]
+            .iter()
+            .map(|&i| {
+                let (level, blend) = mips.level(cells.footprint[i].max(least) * t.scale()[0].abs());
+                Probe { uv: t.rotate_scale(cells.uv[i]), level, blend }
+            })
+            .collect()
+    }
+
+    /// (covariance with the photo, the texture's sum of squares about its mean) of object group `g` at
+    /// `offset`, its blocks' `probes` made for that group.
+    fn terms(&self, g: usize, probes: &[Probe], mips: &TexelMips, offset: [f64; 2]) -> (f64, f64) {
         let m = &self.members[g];
         let (mut cov, mut s, mut ss) = (0.0, 0.0, 0.0);
-        for &i in m {
-            let v = mips.sample(t, cells.uv[i], cells.footprint[i].max(least));
+        for (&i, p) in m.iter().zip(probes) {
+            let mut v = [0.0];
+            mips.trilinear([p.uv[0] + offset[0], p.uv[1] + offset[1]], p.level, p.blend, &mut v);
+            let v = v[0];
             cov += self.centred[i] * v;
             s += v;
             ss += v * v;
@@ -304,16 +337,15 @@ impl Groups {
         candidates: &(dyn Fn(usize) -> Vec<[f64; 2]> + Sync),
         blur: f64,
     ) -> Fit {
-        let transform = |g: usize, o: [f64; 2]| {
-            let c = self.centre_term(g, scale, rotation_deg);
-            TextureTransform { scale: [scale; 2], rotation_deg, offset: [o[0] - c[0], o[1] - c[1]] }
-        };
+        let t = TextureTransform { scale: [scale; 2], rotation_deg, offset: [0.0; 2] }.prepared();
         let ranked: Vec<Vec<([f64; 2], f64, f64)>> = (0..self.members.len())
             .map(|g| {
+                let c = self.centre_term(g, scale, rotation_deg);
+                let probes = self.probes(g, cells, mips, &t, blur);
                 let mut scored: Vec<([f64; 2], f64, f64)> = candidates(g)
                     .into_par_iter()
                     .map(|o| {
-                        let (cov, tss) = self.terms(g, cells, mips, &transform(g, o), blur);
+                        let (cov, tss) = self.terms(g, &probes, mips, [o[0] - c[0], o[1] - c[1]]);
                         (o, cov, tss)
                     })
                     .collect();
