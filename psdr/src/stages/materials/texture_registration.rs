@@ -704,9 +704,9 @@ mod tests {
                 .collect();
             assert_eq!(best_apart(&scores, n, 4), full(&scores, n, 4), "{n}x{n}, {levels} levels");
             // One broad peak: its 5 x 5 shoulders fill the head.
-            for k in 0..n * n {
+            for (k, score) in scores.iter_mut().enumerate() {
                 let (x, y) = ((k % n) as f64 - n as f64 / 2.0, (k / n) as f64 - n as f64 / 2.0);
-                scores[k] = 1e3 - (x * x + y * y) + 0.01 * scores[k];
+                *score = 1e3 - (x * x + y * y) + 0.01 * *score;
             }
             for count in [1, 4, 9] {
                 assert_eq!(best_apart(&scores, n, count), full(&scores, n, count), "{n}x{n}, one peak, {count}");
