@@ -29,6 +29,27 @@ pub trait Backend {
     fn name(&self) -> String;
     /// Renders radiance and all AOVs of `data` with `settings`.
     fn render(&mut self, data: &SceneData, settings: &RenderSettings, progress: Progress) -> Result<Frame>;
+    /// The unit render of each of `emitters` (indices into `data`'s emitters, each at most once): the radiance
+    /// of `data` with that emitter alone at radiance 1 and every other dark, as `render` renders it. By default
+    /// one `render` per emitter; the CPU backend traces each path once for all (`render::unit_paths`, the same
+    /// images). Leaves `data`'s emitter radiances changed: callers set their own again.
+    fn unit_radiances(
+        &mut self,
+        data: &mut SceneData,
+        settings: &RenderSettings,
+        emitters: &[usize],
+    ) -> Result<Vec<Vec<f32>>> {
+        let n = data.emitter_count as usize;
+        emitters
+            .iter()
+            .map(|&e| {
+                let alone: Vec<glam::Vec3> =
+                    (0..n).map(|i| if i == e { glam::Vec3::ONE } else { glam::Vec3::ZERO }).collect();
+                data.set_emitter_radiances(&alone)?;
+                Ok(self.render(data, settings, &|_, _| {})?.radiance)
+            })
+            .collect()
+    }
     /// dLoss/dθ of the material and light parameters of `layout` given dLoss/d(radiance) (the interior term,
     /// twin of `grad::radiance_vjp`) on the device, or `None` where its kernels do not cover the layout (the
     /// default: `grad::radiance_vjp_on` then runs the CPU reference).

@@ -37,8 +37,15 @@ pub struct LightSample {
 /// Picks a light with `u_select` and a uniform point on its triangle with (u1, u2).
 #[inline(always)]
 pub fn sample_light(d: &SceneData, count: u32, u_select: f32, u1: f32, u2: f32) -> LightSample {
-    let li = select_light(&d.lights, count, u_select);
-    let light = &d.lights[li as usize];
+    sample_light_in(d, &d.lights, count, u_select, u1, u2)
+}
+
+/// `sample_light` from another selection distribution over `d`'s triangles and emitters (`unit_paths`: one
+/// emitter's own, as its unit render has it).
+#[inline(always)]
+pub fn sample_light_in(d: &SceneData, lights: &[LightGpu], count: u32, u_select: f32, u1: f32, u2: f32) -> LightSample {
+    let li = select_light(lights, count, u_select);
+    let light = &lights[li as usize];
     let tri = &d.triangles[light.triangle as usize];
     let e1 = Vec3::from(tri.e1);
     let e2 = Vec3::from(tri.e2);
@@ -92,11 +99,17 @@ pub fn emitted_radiance(d: &SceneData, ti: u32, front: bool, dir: Vec3) -> Vec3 
 #[inline(always)]
 pub fn light_pdf_area(d: &SceneData, ti: u32) -> f32 {
     let tri = &d.triangles[ti as usize];
-    if tri.light == NONE {
+    light_pdf_area_in(&d.lights, tri.light, tri)
+}
+
+/// `light_pdf_area` in another selection distribution, `entry` the triangle's place in it (or NONE).
+#[inline(always)]
+pub fn light_pdf_area_in(lights: &[LightGpu], entry: u32, tri: &TriangleGeom) -> f32 {
+    if entry == NONE {
         return 0.0;
     }
     let area = 0.5 * Vec3::from(tri.e1).cross(Vec3::from(tri.e2)).length();
-    d.lights[tri.light as usize].pmf / area
+    lights[entry as usize].pmf / area
 }
 
 /// Power heuristic (beta = 2) weight of a strategy with density `a` against one with density `b`.

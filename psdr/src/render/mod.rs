@@ -15,6 +15,7 @@ pub mod sampler;
 pub mod scene_data;
 pub mod shading;
 pub mod texture;
+pub mod unit_paths;
 
 pub use cpu::render_cpu;
 pub use frame::Frame;

@@ -339,17 +339,26 @@ pub(crate) fn unit_renders(
     }
     let mut data = SceneData::build(&s)?;
     let emitting: Vec<usize> = (0..scene.objects.len()).filter(|&i| scene.objects[i].emitter.is_some()).collect();
-    lights
+    // Each light's emitter (a light asked for twice is rendered once; one that does not emit is black).
+    let emitter = |light: usize| emitting.iter().position(|&i| i == light);
+    let mut rendered: Vec<usize> = lights.iter().filter_map(|&l| emitter(l)).collect();
+    rendered.sort_unstable();
+    rendered.dedup();
+    lights.iter().for_each(|_| each());
+    let radiances = backend.unit_radiances(&mut data, &s.settings, &rendered)?;
+    let (sw, sh) = (s.camera.width as usize, s.camera.height as usize);
+    Ok(lights
         .iter()
         .map(|&light| {
-            each();
-            let radiance: Vec<Vec3> =
-                emitting.iter().map(|&i| if i == light { Vec3::ONE } else { Vec3::ZERO }).collect();
-            data.set_emitter_radiances(&radiance)?;
-            let f = backend.render(&data, &s.settings, &|_, _| {})?;
-            Ok(if at_small_size { f.radiance } else { downsample(&f.radiance, w, h, k).0 })
+            let Some(e) = emitter(light) else { return vec![0.0; (w / k).max(1) * (h / k).max(1) * 3] };
+            let r = &radiances[rendered.binary_search(&e).expect("rendered")];
+            if at_small_size {
+                r.clone()
+            } else {
+                downsample(r, sw, sh, k).0
+            }
         })
-        .collect()
+        .collect())
 }
 
 /// `unit_renders` of one light.
