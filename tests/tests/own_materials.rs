@@ -2,7 +2,7 @@
 //! known-geometry room whose left wall is painted blue beside cream ones: with the room box's one "wall"
 //! material the division can only find a colour between the two (the blue wall's albedo far off); with a
 //! material per wall, divided out and joined back where alike (`join_alike_materials`, room.rhai's
-//! tolerance 0.25), the blue wall keeps its own, the cream walls and the one behind the camera (no pixel)
+//! tolerance 0.4), the blue wall keeps its own, the cream walls and the one behind the camera (no pixel)
 //! share one, each seen wall's albedo within 5 % of its paint, and the image comes closer. Painted all cream,
 //! the four walls end as one material. True lights, segments from the truth's object ids, 128 x 96 pixels.
 
@@ -51,7 +51,7 @@ fn split_divide_join(s: &mut Scene, photo: &Frame, division: &Division) -> Joine
     divide_albedos(&mut CpuBackend, s, &photo.radiance, &segs, division).unwrap();
     let seen: Vec<(String, f64)> =
         segs.iter().map(|x| (s.materials[x.material].name.clone(), x.mask.iter().map(|&v| v as f64).sum())).collect();
-    join_alike_materials(s, &seen, &walls, 0.25, "wall").unwrap().unwrap()
+    join_alike_materials(s, &seen, &walls, 0.4, "wall").unwrap().unwrap()
 }
 
 fn relative(a: Vec3, truth: Vec3) -> f32 {

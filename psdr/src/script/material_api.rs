@@ -354,12 +354,12 @@ fn own(run: &RunRef, scene: &mut SceneHandle, objects: &Array) -> crate::Result<
 }
 
 /// `join_alike_materials(s, segments, materials, #{tolerance, name})`: the listed materials the segments show
-/// alike (albedo within `tolerance`, 0.25, of the most seen's; a segment's pixels: its mask's sum) and those
+/// alike (albedo within `tolerance`, 0.4, of the most seen's; a segment's pixels: its mask's sum) and those
 /// they do not show, joined into one named `name` ("wall"), recorded as `joined_materials` (() where nothing
 /// was joined).
 fn join_alike(run: &RunRef, scene: &mut SceneHandle, map: &Map, group: &Array, opts: &Map) -> crate::Result<Dynamic> {
     const WHAT: &str = "join_alike_materials";
-    let (mut tolerance, mut name) = (0.25f32, "wall".to_string());
+    let (mut tolerance, mut name) = (0.4f32, "wall".to_string());
     for (k, v) in opts {
         match k.as_str() {
             "tolerance" => tolerance = option_number(WHAT, k, v)?.max(0.0) as f32,
