@@ -346,7 +346,6 @@ pub(crate) fn unit_renders(
     rendered.dedup();
     lights.iter().for_each(|_| each());
     let radiances = backend.unit_radiances(&mut data, &s.settings, &rendered)?;
-    let (sw, sh) = (s.camera.width as usize, s.camera.height as usize);
     Ok(lights
         .iter()
         .map(|&light| {
@@ -355,7 +354,7 @@ pub(crate) fn unit_renders(
             if at_small_size {
                 r.clone()
             } else {
-                downsample(r, sw, sh, k).0
+                downsample(r, w, h, k).0
             }
         })
         .collect())
