@@ -12,6 +12,12 @@ int wrap(int i, int n) {
     return ((i % n) + n) % n;
 }
 
+// A floored texel coordinate as an index, held within 2^24 texels (where a float has no fraction left): a
+// model file's corrupt uv then names some texel of the wrap instead of overflowing the index.
+int texel_index(float x0) {
+    return int(clamp(x0, -16777216.0, 16777216.0));
+}
+
 // The 2x2 texels around a uv (texel indices, row-major, before the channel) and the bilinear weights.
 // Computed once per lookup and shared by its channels (the integer wraps are the costly part).
 struct Footprint {
@@ -27,8 +33,8 @@ Footprint texture_footprint(TextureGpu t, vec2 uv) {
     float y0 = floor(y);
     float fx = x - x0;
     float fy = y - y0;
-    int ix = int(x0);
-    int iy = int(y0);
+    int ix = texel_index(x0);
+    int iy = texel_index(y0);
     int w = int(t.width);
     int h = int(t.height);
     int xa = wrap(ix, w);

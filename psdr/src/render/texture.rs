@@ -15,6 +15,14 @@ fn wrap(i: i32, n: i32) -> i32 {
     }
 }
 
+/// A floored texel coordinate as an index, held within 2^24 texels (where an f32 has no fraction left): a
+/// model file's corrupt uv (3.4e9 in one Sweet Home 3D model) then names some texel of the wrap instead of
+/// overflowing the index and its neighbour. Ordinary coordinates pass unchanged.
+#[inline(always)]
+pub fn texel_index(x0: f32) -> i32 {
+    x0.clamp(-16_777_216.0, 16_777_216.0) as i32
+}
+
 /// The 2x2 texels around a uv (texel indices, row-major, before the channel) and the bilinear weights.
 /// Computed once per lookup and shared by its channels (the integer wraps are the costly part).
 #[derive(Clone, Copy)]
@@ -30,7 +38,7 @@ pub fn texture_footprint(t: &TextureGpu, uv: Vec2) -> Footprint {
     let y = (1.0 - uv.y) * t.height as f32 - 0.5;
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
-    let (ix, iy) = (x0 as i32, y0 as i32);
+    let (ix, iy) = (texel_index(x0), texel_index(y0));
     let (w, h) = (t.width as i32, t.height as i32);
     let (xa, xb) = (wrap(ix, w), wrap(ix + 1, w));
     let (ya, yb) = (wrap(iy, h) * w, wrap(iy + 1, h) * w);
@@ -62,6 +70,20 @@ pub fn texture_sample_rgb(texels: &[f32], t: &TextureGpu, uv: Vec2) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_corrupt_uv_samples_a_texel_of_the_texture() {
+        let t = TextureGpu { offset: 0, width: 4, height: 2, channels: 1 };
+        let texels: Vec<f32> = (0..8).map(|k| k as f32).collect();
+        for uv in [Vec2::new(3.443871e9, 0.3), Vec2::new(-3.443871e9, 1e30), Vec2::new(0.3, -1e30)] {
+            let f = texture_footprint(&t, uv);
+            assert!(f.texel.iter().all(|&k| k < 8), "{uv}: {:?}", f.texel);
+            assert!(texture_sample(&texels, &t, uv, 0).is_finite(), "{uv}");
+        }
+        // In range, the index is the plain floor.
+        assert_eq!(texel_index(-3.0), -3);
+        assert_eq!(texel_index(1234567.0), 1234567);
+    }
 
     #[test]
     fn fast_wrap_equals_the_definition() {

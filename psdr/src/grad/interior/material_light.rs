@@ -23,7 +23,7 @@ use crate::render::bsdf::BsdfParams;
 use crate::render::cpu::frame_params;
 use crate::render::layout::{TextureGpu, NONE};
 use crate::render::light::emitter_shape;
-use crate::render::texture::texture_footprint;
+use crate::render::texture::{texel_index, texture_footprint};
 use crate::render::SceneData;
 use crate::scene::ParamPath;
 use crate::scene::{Color, Procedural, RenderSettings, Scalar, Scene};
@@ -555,7 +555,7 @@ fn bilinear_weight(t: &TextureGpu, uv: Vec2, texel: u32) -> f32 {
     let (fx, fy) = (x - x0, y - y0);
     let (w, h) = (t.width as i32, t.height as i32);
     let wrap = |i: i32, n: i32| ((i % n) + n) % n;
-    let (ix, iy) = (x0 as i32, y0 as i32);
+    let (ix, iy) = (texel_index(x0), texel_index(y0));
     let mut weight = 0.0;
     for (dx, dy, wt) in
         [(0, 0, (1.0 - fx) * (1.0 - fy)), (1, 0, fx * (1.0 - fy)), (0, 1, (1.0 - fx) * fy), (1, 1, fx * fy)]
