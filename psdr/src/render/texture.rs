@@ -16,7 +16,7 @@ fn wrap(i: i32, n: i32) -> i32 {
 }
 
 /// A floored texel coordinate as an index, held within 2^24 texels (where an f32 has no fraction left): a
-/// model file's corrupt uv (3.4e9 in one Sweet Home 3D model) then names some texel of the wrap instead of
+/// model file's corrupt uv (3.4e9 in two Sweet Home 3D models) then names some texel of the wrap instead of
 /// overflowing the index and its neighbour. Ordinary coordinates pass unchanged.
 #[inline(always)]
 pub fn texel_index(x0: f32) -> i32 {
