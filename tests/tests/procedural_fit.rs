@@ -4,9 +4,9 @@
 //! per-board variation), at 256x192. The stage must pick both library materials and move their graph
 //! parameters towards the photo (the fit to the albedo crop, `stages::graph_fit`, then the joint optimisation
 //! under global illumination, PSDR-Room Eq. final): judged against the same run with the graphs frozen at the
-//! library's parameters (`texture_graph_iters=0 optimize_graphs=false`: tint and uv transform only), the
-//! albedo's texture error (descriptor distance between the fitted and true albedo images, each divided by its
-//! mean colour, `evaluation`) must fall by 40 % on the floor (whose seams and per-board variation differ from
+//! library's parameters (`texture_graph_iters=0 texture_aligned_iters=0 optimize_graphs=false`: tint and uv
+//! transform only), the albedo's texture error (descriptor distance between the fitted and true albedo images,
+//! each divided by its mean colour, `evaluation`) must fall by 80 % on the floor (whose seams and per-board variation differ from
 //! the library's) and not rise on the walls (whose colours alone differ), and their mean albedo errors must not
 //! rise by more than 3 points (the walls' texture error by at most 0.04, see below). Measured: texture error
 //! floor 0.149 -> 0.039, walls 0.031 -> 0.059; mean albedo error 16.4 -> 16.9 % and 23.3 -> 21.1 % (before the
@@ -15,9 +15,12 @@
 //! the albedos' level by 3-5 points). The floor's bar was a half until the albedo divisions went from 32 to 16
 //! spp (`albedo_spp`, 2026-11-29: 45 s of real room02's 276): at 32 spp the floor 0.135 -> 0.050, at 16 spp
 //! 0.135 -> 0.069 (seed 1) and 0.072 (seed 2); the walls 0.031 -> 0.035 at 32 spp, 0.037 at 16.
-//! The image error at 1/8 size is printed, not judged: the stripes (10 pixels wide) survive an 8x8 average, and
-//! the pattern's phase on the wall (the uv offset, which nothing fits) decides it: 9.9 % -> 13.2 % here, the
-//! fitted walls' uv scale moving the phase across the wall.
+//! Since the kept graph is fitted once more block by block where it was registered (`aligned_graph_fit`,
+//! 2026-12-07; the frozen run has it off too: `texture_aligned_iters=0`), the floor's texture error is
+//! 0.135 -> 0.0067 (its bar now a fifth: 0.135 -> 0.069 without that step), the walls' 0.031 -> 0.051, and the
+//! image error at 1/8 size 4.3 -> 1.7 %, judged too: the stripes (10 pixels wide) survive an 8x8 average, so
+//! the pattern's phase on the wall decides it, which the registration and that fit now put in place (9.9 ->
+//! 13.2 % before them, the fitted uv scale moving the phase across the wall).
 
 use glam::{Vec2, Vec3};
 use psdr::scene::{Procedural, Scene, UvTransform};
@@ -70,8 +73,10 @@ fn graph_parameters_move_towards_the_photo() {
     let t = std::time::Instant::now();
     // Lighter settings than the script's defaults for the stages this test does not judge (CI time).
     let light = ["light_scale_steps=5", "texture_spp=64", "material_iters=20", "path_depth=3"];
-    let frozen =
-        run_on_known_geometry(&dir, &[&light[..], &["texture_graph_iters=0", "optimize_graphs=false"]].concat());
+    let frozen = run_on_known_geometry(
+        &dir,
+        &[&light[..], &["texture_graph_iters=0", "texture_aligned_iters=0", "optimize_graphs=false"]].concat(),
+    );
     let t_frozen = t.elapsed().as_secs_f32();
     let t = std::time::Instant::now();
     let moved = run_on_known_geometry(&dir, &light);
@@ -83,6 +88,12 @@ fn graph_parameters_move_towards_the_photo() {
     }
     let rmse = |r: &serde_json::Value| r["recorded"]["evaluation"]["image"]["rmse_rel_1_8"].as_f64().unwrap();
     eprintln!("image RMSE at 1/8: tint only {:.4}, graphs {:.4}", rmse(&frozen), rmse(&moved));
+    assert!(
+        rmse(&moved) < rmse(&frozen),
+        "image RMSE at 1/8: {} with the graphs fitted, {} without",
+        rmse(&moved),
+        rmse(&frozen)
+    );
     for name in ["floor", "wall"] {
         let (a, b) = (surface(&frozen, name), surface(&moved, name));
         let tex = |s: &serde_json::Value| s["texture_error"].as_f64().unwrap();
@@ -96,7 +107,7 @@ fn graph_parameters_move_towards_the_photo() {
         // The wall's bound allows 0.04 of rise: under the light scale the unbiased score chooses on this
         // one-bounce photo (red 2.1, its error curve within 1 % from 1.4 to 2.8) the fitted stripes measured
         // 0.031 -> 0.059 (0.031 -> 0.025 under the one-render L1 score before 2026-11-27).
-        let (factor, slack) = if name == "floor" { (0.6, 0.0) } else { (1.0, 0.04) };
+        let (factor, slack) = if name == "floor" { (0.2, 0.0) } else { (1.0, 0.04) };
         assert!(
             tex(b) < factor * tex(a) + slack,
             "{name}: texture error {} with the graphs fitted, {} without",

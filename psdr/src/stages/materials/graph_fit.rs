@@ -55,8 +55,6 @@ pub fn fit_graph_to_crop(
     if (grid.width, grid.height) != (crop.width, crop.height) || crop.channels != 3 {
         return Err(Error::Invalid("fit_graph_to_crop: the crop and its uv grid differ in size".into()));
     }
-    let graph = p.load_graph()?;
-    let ranges = graph.float_ranges();
     let crop_descriptor = texture_descriptor(&Tensor::constant(crop.clone()))?;
     let crop_mean = channel_means(crop);
     let scale_before = *scale;
@@ -77,25 +75,60 @@ pub fn fit_graph_to_crop(
         }
     }
     *scale = best_search.1;
-    // u: graph floats as fractions of their ranges, then ln(tint), then ln(uv scale).
+    // The scale's coordinate for Adam is ln(scale) in `SCALE_UNITS`.
+    let mut extra = [(*scale as f64).ln() * SCALE_UNITS];
+    let best_loss = fit_graph(p, &mut extra, opts, &mut |mips, x, with_gradient| {
+        let s = (x[0] / SCALE_UNITS).exp() as f32;
+        let view = texture_view_mips(mips, s, rotation_deg, grid);
+        let (loss, d_view) =
+            descriptor_and_colour(&view, &crop_descriptor, crop_mean, opts.colour_weight, with_gradient)?;
+        if !with_gradient {
+            return Ok((loss, vec![], vec![]));
+        }
+        let (d_texels, d_transform) = texture_view_backward(mips, s, rotation_deg, grid, &d_view);
+        Ok((loss, d_texels, vec![(d_transform.scale[0] + d_transform.scale[1]) * s as f64 / SCALE_UNITS]))
+    })?;
+    *scale = (extra[0] / SCALE_UNITS).exp() as f32;
+    Ok(GraphFit {
+        loss_before: first_loss_at_start,
+        loss_after: best_loss,
+        iterations: opts.iters,
+        scale_before,
+        scale_after: *scale,
+    })
+}
+
+/// What a graph fit compares the texture with: given the baked texture's mips (tint applied) and the fit's
+/// other coordinates (`extra`: how the texture lies on the surface), the loss and, when asked,
+/// dL/d(level-0 texels) and dL/d(extra).
+pub(super) type GraphObjective<'a> = dyn FnMut(&Mips, &[f64], bool) -> Result<(f32, Vec<f64>, Vec<f64>)> + 'a;
+
+/// Adam on the graph's continuous parameters (fractions of their ranges, a prior toward the start's), the tint
+/// (log) and the caller's `extra` coordinates (each scaled so that Adam's step, the same in every coordinate,
+/// suits it) against `objective`, the rate decaying to a tenth; `p` and `extra` end at the best state seen,
+/// whose loss (prior included) is returned.
+pub(super) fn fit_graph(
+    p: &mut Procedural,
+    extra: &mut [f64],
+    opts: &GraphFitOptions,
+    objective: &mut GraphObjective,
+) -> Result<f32> {
+    let graph = p.load_graph()?;
+    let ranges = graph.float_ranges();
+    // u: graph floats as fractions of their ranges, then ln(tint), then the extra coordinates.
     let n = ranges.len();
-    let to_u = |p: &Procedural| -> Vec<f64> {
-        let mut u: Vec<f64> = p.params.floats.iter().zip(&ranges).map(|(&v, &(lo, hi))| (v - lo) / (hi - lo)).collect();
-        u.extend(p.tint.to_array().map(|t| (t.max(1e-6) as f64).ln()));
-        u.push((*scale as f64).ln() * SCALE_UNITS);
-        u
-    };
+    let mut u: Vec<f64> = p.params.floats.iter().zip(&ranges).map(|(&v, &(lo, hi))| (v - lo) / (hi - lo)).collect();
+    u.extend(p.tint.to_array().map(|t| (t.max(1e-6) as f64).ln()));
+    u.extend_from_slice(extra);
     let set_u = |p: &mut Procedural, u: &[f64]| {
         for (k, (&(lo, hi), v)) in ranges.iter().zip(&mut p.params.floats).enumerate() {
             *v = lo + u[k].clamp(0.0, 1.0) * (hi - lo);
         }
         p.tint = Vec3::from_array(std::array::from_fn(|c| u[n + c].exp() as f32));
     };
-    let mut u = to_u(p);
     let u0 = u.clone();
-    let scale_of = |u: &[f64]| (u[n + 3] / SCALE_UNITS).exp() as f32;
     let mut adam = AdamState::new(u.len());
-    let (mut best, mut best_scale, mut best_loss) = (p.clone(), *scale, f32::INFINITY);
+    let (mut best, mut best_extra, mut best_loss) = (p.clone(), extra.to_vec(), f32::INFINITY);
     for t in 0..=opts.iters {
         set_u(p, &u);
         let (mut ev, base) = p.evaluate()?;
@@ -104,9 +137,8 @@ pub fn fit_graph_to_crop(
         let texels: Vec<f32> =
             base.chunks(3).flat_map(|b| (0..3).map(move |c| (b[c] * tint[c]).clamp(0.0, 1.0))).collect();
         let mips = Mips::new(size, &texels);
-        let s = scale_of(&u);
-        let view = texture_view_mips(&mips, s, rotation_deg, grid);
-        let (loss, d_view) = descriptor_and_colour(&view, &crop_descriptor, crop_mean, opts.colour_weight, true)?;
+        let last = t == opts.iters;
+        let (loss, d_texels, d_extra) = objective(&mips, &u[n + 3..], !last)?;
         // The library's parameters as a prior: a departure must buy its cost in the fit.
         let prior: f64 =
             (0..n).map(|k| (u[k].clamp(0.0, 1.0) - u0[k]).powi(2)).sum::<f64>() * opts.prior_weight / n as f64;
@@ -115,13 +147,12 @@ pub fn fit_graph_to_crop(
             break;
         }
         if loss < best_loss {
-            (best, best_scale, best_loss) = (p.clone(), s, loss);
+            (best, best_extra, best_loss) = (p.clone(), u[n + 3..].to_vec(), loss);
         }
-        if t == opts.iters {
+        if last {
             break;
         }
-        // Back through the lookups to the texels, then through the tint and the graph.
-        let (d_texels, d_transform) = texture_view_backward(&mips, s, rotation_deg, grid, &d_view);
+        // Back through the tint and the graph.
         let (d_params, d_tint) = p.backward(&mut ev, &base, &d_texels, true);
         let d_params = d_params.expect("asked for");
         let mut g: Vec<f64> = d_params.iter().zip(&ranges).map(|(d, &(lo, hi))| d * (hi - lo)).collect();
@@ -129,19 +160,14 @@ pub fn fit_graph_to_crop(
             g[k] += 2.0 * opts.prior_weight * (u[k].clamp(0.0, 1.0) - u0[k]) / n as f64;
         }
         g.extend((0..3).map(|c| d_tint[c] * p.tint[c] as f64));
-        g.push((d_transform.scale[0] + d_transform.scale[1]) * s as f64 / SCALE_UNITS);
+        g.extend((0..extra.len()).map(|k| d_extra.get(k).copied().unwrap_or(0.0)));
         // Cosine decay to a tenth.
         let lr = opts.lr * (0.1 + 0.9 * 0.5 * (1.0 + (std::f64::consts::PI * t as f64 / opts.iters as f64).cos()));
         adam.step(&AdamConfig::default(), lr, &mut u, &g);
     }
-    (*p, *scale) = (best, best_scale);
-    Ok(GraphFit {
-        loss_before: first_loss_at_start,
-        loss_after: best_loss,
-        iterations: opts.iters,
-        scale_before,
-        scale_after: best_scale,
-    })
+    *p = best;
+    extra.copy_from_slice(&best_extra);
+    Ok(best_loss)
 }
 
 /// The loss and, when asked, dL/d(view): the descriptor distance plus `colour_weight` times the relative L1

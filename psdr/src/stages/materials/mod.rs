@@ -10,6 +10,7 @@
 //! pixels a specular lobe reproduces clearly better than a matte surface gets one (`gloss_fit`).
 
 mod albedo_division;
+mod aligned_graph_fit;
 mod geometry_agreement;
 mod gloss_fit;
 mod graph_fit;

@@ -97,6 +97,9 @@ pub(crate) struct Cells {
     pub colour: Vec<[f64; 3]>,
     pub uv: Vec<[f64; 2]>,
     pub footprint: Vec<f64>,
+    /// The uv change across the block along the image's x and along its y (a parallelogram on a surface seen
+    /// at a slant; `footprint` is the longer side).
+    pub axes: Vec<[[f64; 2]; 2]>,
     pub object: Vec<u32>,
 }
 
@@ -118,7 +121,7 @@ impl Cells {
                 Vec2::from(sh.uv0) * (1.0 - hit.u - hit.v) + Vec2::from(sh.uv1) * hit.u + Vec2::from(sh.uv2) * hit.v;
             Some(([uv.x as f64, uv.y as f64], d.triangles[t].object))
         };
-        let mut out = Cells { side, albedo: vec![], colour: vec![], uv: vec![], footprint: vec![], object: vec![] };
+        let mut out = Cells::empty(side);
         for by in 0..h / side {
             for bx in 0..w / side {
                 let (mut sum, mut n) = ([0.0f64; 3], 0usize);
@@ -139,22 +142,31 @@ impl Cells {
                 // The block's footprint: the uv distance to a block's width away, either way along each axis.
                 let s = side as f32;
                 let step = |dx: f32, dy: f32| {
-                    [(dx, dy), (-dx, -dy)].into_iter().find_map(|(a, b)| {
-                        hit_uv(cx + a, cy + b)
-                            .filter(|(_, o)| *o == object)
-                            .map(|(q, _)| ((q[0] - uv[0]).powi(2) + (q[1] - uv[1]).powi(2)).sqrt())
-                    })
+                    [(dx, dy), (-dx, -dy)]
+                        .into_iter()
+                        .find_map(|(a, b)| hit_uv(cx + a, cy + b).filter(|(_, o)| *o == object))
+                        .map(|(q, _)| [q[0] - uv[0], q[1] - uv[1]])
                 };
-                let (Some(fx), Some(fy)) = (step(s, 0.0), step(0.0, s)) else { continue };
-                let colour = sum.map(|v| v / n as f64);
-                out.albedo.push(0.2126 * colour[0] + 0.7152 * colour[1] + 0.0722 * colour[2]);
-                out.colour.push(colour);
-                out.uv.push(uv);
-                out.footprint.push(fx.max(fy));
-                out.object.push(object);
+                let (Some(ax), Some(ay)) = (step(s, 0.0), step(0.0, s)) else { continue };
+                out.push(sum.map(|v| v / n as f64), uv, [ax, ay], object);
             }
         }
         out
+    }
+
+    /// No blocks yet, each to be `side` pixels.
+    pub fn empty(side: usize) -> Cells {
+        Cells { side, albedo: vec![], colour: vec![], uv: vec![], footprint: vec![], axes: vec![], object: vec![] }
+    }
+
+    /// One more block: its mean colour, the uv under its centre, its axes (see `axes`) and object.
+    pub fn push(&mut self, colour: [f64; 3], uv: [f64; 2], axes: [[f64; 2]; 2], object: u32) {
+        self.albedo.push(0.2126 * colour[0] + 0.7152 * colour[1] + 0.0722 * colour[2]);
+        self.colour.push(colour);
+        self.uv.push(uv);
+        self.footprint.push(axes[0][0].hypot(axes[0][1]).max(axes[1][0].hypot(axes[1][1])));
+        self.axes.push(axes);
+        self.object.push(object);
     }
 
     pub fn len(&self) -> usize {
@@ -727,8 +739,7 @@ mod tests {
         let truth = [[0.21, 0.64], [0.57, 0.12]];
         let origins = [[-8.97, -7.6], [3.3, -7.6]];
         let block = 0.03;
-        let mut cells =
-            Cells { side: 4, albedo: vec![], colour: vec![], uv: vec![], footprint: vec![], object: vec![] };
+        let mut cells = Cells::empty(4);
         let mut noise = 0x2545F491u32;
         for (o, origin) in origins.iter().enumerate() {
             let t = TextureTransform { scale: [scale; 2], rotation_deg: rotation, offset: truth[o] }.prepared();
@@ -741,11 +752,7 @@ mod tests {
                     let shading = 1.0 + 0.1 * (i as f64 / 90.0) - 0.05 * (j as f64 / 60.0);
                     let n = 0.02 * ((noise % 1000) as f64 / 1000.0 - 0.5);
                     let v = mips.sample(&t, uv, block) * shading + n;
-                    cells.albedo.push(v);
-                    cells.colour.push([v; 3]);
-                    cells.uv.push(uv);
-                    cells.footprint.push(block);
-                    cells.object.push(o as u32);
+                    cells.push([v; 3], uv, [[block, 0.0], [0.0, block]], o as u32);
                 }
             }
         }
@@ -810,17 +817,11 @@ mod tests {
             let shown = library_texture(photo, size);
             let truth = TexelMips::rgb(size, &shown);
             let t = TextureTransform { scale: [1.0; 2], rotation_deg: 0.0, offset: [0.3, 0.6] }.prepared();
-            let mut cells =
-                Cells { side: 4, albedo: vec![], colour: vec![], uv: vec![], footprint: vec![], object: vec![] };
+            let mut cells = Cells::empty(4);
             for j in 0..50 {
                 for i in 0..50 {
                     let uv = [i as f64 * 0.02, j as f64 * 0.02];
-                    let colour = truth.sample_rgb(&t, uv, 0.02);
-                    cells.albedo.push(0.2126 * colour[0] + 0.7152 * colour[1] + 0.0722 * colour[2]);
-                    cells.colour.push(colour);
-                    cells.uv.push(uv);
-                    cells.footprint.push(0.02);
-                    cells.object.push(0);
+                    cells.push(truth.sample_rgb(&t, uv, 0.02), uv, [[0.02, 0.0], [0.0, 0.02]], 0);
                 }
             }
             let (fit, _) = register(&cells, &mips, 1.0, 0.0, &RegistrationOptions::default()).unwrap();
@@ -854,6 +855,7 @@ mod tests {
             colour: vec![[0.4; 3]; 400],
             uv: (0..400).map(|i| [(i % 20) as f64 * 0.05, (i / 20) as f64 * 0.05]).collect(),
             footprint: vec![0.05; 400],
+            axes: vec![[[0.05, 0.0], [0.0, 0.05]]; 400],
             object: vec![0; 400],
         };
         assert!(register(&flat, &mips, 1.0, 0.0, &RegistrationOptions::default()).is_none());
@@ -863,6 +865,7 @@ mod tests {
             colour: vec![[0.1; 3], [0.5; 3]],
             uv: vec![[0.0; 2]; 2],
             footprint: vec![0.05; 2],
+            axes: vec![[[0.05, 0.0], [0.0, 0.05]]; 2],
             object: vec![0; 2],
         };
         assert!(register(&tiny, &mips, 1.0, 0.0, &RegistrationOptions::default()).is_none());
