@@ -3,7 +3,8 @@
 //! the shading and the lights' common scale (`albedo_division`, or
 //! scored from renders kept by bounce count: `light_scale_bounces`), the procedural library searched on a crop
 //! (`material_search`, through `texture_view`) and fitted to it (`graph_fit`), and applied to the surfaces that
-//! show a texture (`surface_textures`), registered on the surface's pixels (`texture_registration`); a retrieved model's own pictures go back on
+//! show a texture (`surface_textures`), registered on the surface's pixels (`texture_registration`) and fitted
+//! there block by block (`aligned_graph_fit`); a retrieved model's own pictures go back on
 //! its parts where they are closer to the photo than the fitted constant (`object_pictures`); a plane whose
 //! texture the library does not reproduce takes the photo's own pattern (`photo_textures`); each wall gets a
 //! material of its own, joined back where the photo shows them alike (`own_materials`); a segment whose

@@ -591,9 +591,6 @@ fn uv_grid(d: &SceneData, material: u32, r: [usize; 4], k: [f32; 2], samples: us
     Some(UvGrid { width: r[2], height: r[3], uvs })
 }
 
-/// The library material as the material's procedural albedo through the found transform, its graph fitted to
-/// the crop (when `fit.iters` > 0), tinted to mean `albedo`.
-#[allow(clippy::too_many_arguments)]
 /// Step 7 on the kept scene: the material's graph fitted on blocks of `side` working pixels of its segment
 /// (`mask`), seen through its registered transform and its surfaces' shifted uvs, against the photo's albedo
 /// `map`; applied where it lowers the error ratio. None where the material is not procedural or no block shows
@@ -622,6 +619,9 @@ fn fit_where_registered(
     Ok(Some(AlignedFit { error_before, error_after, cells: cells.len(), cell_pixels: side, applied }))
 }
 
+/// The library material as the material's procedural albedo through the found transform, its graph fitted to
+/// the crop (when `fit.iters` > 0), tinted to mean `albedo`.
+#[allow(clippy::too_many_arguments)]
 fn apply(
     scene: &mut Scene,
     material: usize,
