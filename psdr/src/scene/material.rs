@@ -38,6 +38,15 @@ impl UvTransform {
         let (s, c) = self.rotation_deg.to_radians().sin_cos();
         [[c * self.scale.x, -s * self.scale.y, self.offset.x], [s * self.scale.x, c * self.scale.y, self.offset.y]]
     }
+
+    /// The same transform in the material library's (f64) form, for its lookups and their derivatives.
+    pub fn texture_transform(&self) -> psdr_materials::TextureTransform {
+        psdr_materials::TextureTransform {
+            scale: [self.scale.x as f64, self.scale.y as f64],
+            rotation_deg: self.rotation_deg as f64,
+            offset: [self.offset.x as f64, self.offset.y as f64],
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -8,7 +8,8 @@
 //! the scene in place; the search is recorded in result.json as `light_scale` and returned.
 //! `texture_surfaces(s, photo, segments, #{spp, top_k, colour_weight, min_contrast, min_crop, max_crop,
 //! samples, library_size, graph_iters, graph_lr, embedding, embedding_weight, register, max_error_ratio,
-//! register_rotation_step, register_scale_octaves, register_scale_steps, aligned_iters, detail})` gives the segments that
+//! register_rotation_step, register_scale_octaves, register_scale_steps, aligned_iters, aligned_lr, aligned_max_cells,
+//! detail})` gives the segments that
 //! show a texture (ranked with an ONNX image encoder's similarity too when `embedding` names one; crops cut from `detail`, the photo at more pixels, when given) a procedural material
 //! from the library, its graph fitted to the crop (`stages::surface_textures`, `stages::graph_fit`) and, unless
 //! `register` is false, registered on the segment's pixels (taken back, homogeneous, where the registered
@@ -227,12 +228,14 @@ fn textures(run: &RunRef, scene: &mut SceneHandle, photo: &Tensor, map: &Map, op
             "register_scale_octaves" => o.registration.scale_octaves = n.clamp(0.0, 4.0) as f32,
             "register_scale_steps" => o.registration.scale_steps = n.clamp(1.0, 96.0) as usize,
             "aligned_iters" => o.aligned_fit.iters = n.max(0.0) as usize,
+            "aligned_lr" => o.aligned_fit.lr = n.max(0.0),
+            "aligned_max_cells" => o.aligned_max_cells = n.max(16.0) as usize,
             other => {
                 return Err(Error::Invalid(format!(
                     "{what}: unknown option '{other}' (spp, top_k, colour_weight, min_contrast, min_crop, max_crop, \
                      samples, contrast_tolerance, library_size, graph_iters, graph_lr, embedding, embedding_weight, \
                      register, max_error_ratio, register_rotation_step, register_scale_octaves, \
-                     register_scale_steps, aligned_iters, detail)"
+                     register_scale_steps, aligned_iters, aligned_lr, aligned_max_cells, detail)"
                 )))
             }
         }

@@ -133,15 +133,7 @@ impl GradLayout {
             shading_normal_wanted: false,
             uv_scale: vec![None; scene.materials.len()],
             uv_rotation: vec![None; scene.materials.len()],
-            uv_transform: scene
-                .materials
-                .iter()
-                .map(|m| TextureTransform {
-                    scale: [m.uv_transform.scale.x as f64, m.uv_transform.scale.y as f64],
-                    rotation_deg: m.uv_transform.rotation_deg as f64,
-                    offset: [m.uv_transform.offset.x as f64, m.uv_transform.offset.y as f64],
-                })
-                .collect(),
+            uv_transform: scene.materials.iter().map(|m| m.uv_transform.texture_transform()).collect(),
             albedo_maps: vec![],
             chains: vec![],
             extended_len: 0,

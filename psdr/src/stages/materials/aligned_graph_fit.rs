@@ -1,4 +1,4 @@
-//! The chosen procedural material's graph fitted once more where the registration put it: pixel by pixel
+//! The chosen procedural material's graph fitted once more where the registration put it: block by block
 //! against the photo's albedo over the whole segment.
 //!
 //! The first fit (`graph_fit`) matches a crop's texture descriptor, which cannot see where the pattern lies and
@@ -7,11 +7,14 @@
 //! colour error of the texture against the photo's albedo over the flat albedo's, `error_ratio`) fits the
 //! widths and colours themselves: real room00's floor tiles came out of the descriptor fit with grout 0.013 of
 //! a repeat wide for the photo's 0.02, paler, the tiles darker, a grid of errors over the whole floor. The
-//! graph's parameters and tint move by Adam (`graph_fit::fit_graph`; the uv transform is the registration's
-//! and stays), the tint is brought back to the fitted albedo after (the lights' fit holds), and the caller keeps
-//! the fit only where it lowers the error ratio.
+//! graph's parameters and tint, and the uv transform (two scales, the rotation, the offset about the blocks'
+//! centre, from the registration's), move by Adam (`graph_fit::fit_graph`), the tint is brought back to the
+//! fitted albedo after (the lights' fit holds), and the caller keeps the fit only where it lowers the error
+//! ratio. Each block's texture is the mean of lookups spread over the block's parallelogram on the surface
+//! (`block_samples`): one lookup filtered to the block's longer side blurs a slanted floor's grout threefold,
+//! and scored room00's true tiles 0.51 against the fitted ones' 0.48 (spread: 0.18 against 0.20).
 
-use super::graph_fit::{fit_graph, GraphFitOptions, GraphObjective};
+use super::graph_fit::{fit_graph, tint_to_mean, GraphFitOptions, GraphObjective};
 use super::texture_registration::Cells;
 use super::texture_view::Mips;
 use crate::error::{Error, Result};
@@ -54,11 +57,7 @@ pub fn fit_graph_on_cells(
         .map(|i| (0..3).map(|c| (cells.colour[i][c] - flat[c] as f64).powi(2)).sum::<f64>())
         .sum::<f64>()
         .max(1e-12);
-    let start = TextureTransform {
-        scale: [transform.scale.x as f64, transform.scale.y as f64],
-        rotation_deg: transform.rotation_deg as f64,
-        offset: [transform.offset.x as f64, transform.offset.y as f64],
-    };
+    let start = transform.texture_transform();
     let about_centre = start.prepared().apply(centre);
     let mut extra = [
         start.scale[0].ln() * SCALE_UNITS,
@@ -112,14 +111,9 @@ fn centred_transform(x: &[f64]) -> TextureTransform {
     }
 }
 
-/// `p` tinted so its baked mean is `flat` (twice: clamping), and its error under `objective` at `extra`.
+/// `p` tinted so its baked mean is `flat` (`tint_to_mean`), and its error under `objective` at `extra`.
 fn error_of(p: &mut Procedural, flat: Vec3, objective: &mut GraphObjective, extra: &[f64]) -> Result<f32> {
-    for _ in 0..2 {
-        let baked = p.bake()?;
-        let n = (baked.width * baked.height) as f32;
-        let mean = Vec3::from_array(std::array::from_fn(|c| baked.texels.iter().skip(c).step_by(3).sum::<f32>() / n));
-        p.tint *= flat / mean.max(Vec3::splat(1e-4));
-    }
+    tint_to_mean(p, flat)?;
     let baked = p.bake()?;
     Ok(objective(&Mips::new(p.size as usize, &baked.texels), extra, false)?.0)
 }

@@ -170,6 +170,17 @@ pub(super) fn fit_graph(
     Ok(best_loss)
 }
 
+/// Multiplies `p`'s tint so its baked texture's mean colour is `mean` (twice: the bake clamps texels to 1).
+pub(super) fn tint_to_mean(p: &mut Procedural, mean: Vec3) -> Result<()> {
+    for _ in 0..2 {
+        let baked = p.bake()?;
+        let n = (baked.width * baked.height) as f32;
+        let now = Vec3::from_array(std::array::from_fn(|c| baked.texels.iter().skip(c).step_by(3).sum::<f32>() / n));
+        p.tint *= mean / now.max(Vec3::splat(1e-4));
+    }
+    Ok(())
+}
+
 /// The loss and, when asked, dL/d(view): the descriptor distance plus `colour_weight` times the relative L1
 /// distance of the mean colours.
 fn descriptor_and_colour(

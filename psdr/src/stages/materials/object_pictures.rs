@@ -17,7 +17,6 @@ use crate::error::{Error, Result};
 use crate::render::SceneData;
 use crate::scene::{Color, ModelLook, Scene, Texture, TextureEncoding};
 use glam::Vec3;
-use psdr_materials::TextureTransform;
 
 #[derive(Clone, Debug)]
 pub struct ObjectPictureOptions {
@@ -123,13 +122,7 @@ pub fn apply_object_pictures(
             continue;
         };
         let size = picture.width as usize;
-        let t = material.uv_transform;
-        let transform = TextureTransform {
-            scale: [t.scale.x as f64, t.scale.y as f64],
-            rotation_deg: t.rotation_deg as f64,
-            offset: [t.offset.x as f64, t.offset.y as f64],
-        }
-        .prepared();
+        let transform = material.uv_transform.texture_transform().prepared();
         let cells = seg.map(|seg| {
             let pixels = seg.mask.iter().filter(|&&v| v > 0.5).count();
             let side = ((pixels as f64 / opts.max_cells.max(1) as f64).sqrt().ceil() as usize).max(1);

@@ -94,6 +94,15 @@ impl Mips {
         Mips { levels }
     }
 
+    /// The two levels a lookup filtered to `texture_units` (a footprint in texture repeats) blends, and the
+    /// weight of the coarser one.
+    pub(crate) fn levels_for(&self, texture_units: f64) -> (usize, usize, f64) {
+        let top = self.levels.len() - 1;
+        let lod = (texture_units * self.levels[0].0 as f64).max(1.0).log2().min(top as f64);
+        let l = (lod.floor() as usize).min(top);
+        (l, (l + 1).min(top), lod - l as f64)
+    }
+
     pub(crate) fn view(&self, l: usize) -> TextureView<'_> {
         let (s, t) = &self.levels[l];
         TextureView { width: *s, height: *s, channels: 3, texels: t }
@@ -123,17 +132,6 @@ impl Mips {
 /// Each pixel's two mip levels and the weight of the coarser one.
 fn lods(mips: &Mips, grid: &UvGrid, scale: f32) -> Vec<(usize, usize, f64)> {
     grid.footprints().into_iter().map(|f| mips.levels_for(f * scale.abs() as f64)).collect()
-}
-
-impl Mips {
-    /// The two levels a lookup filtered to `texture_units` (a footprint in texture repeats) blends, and the
-    /// weight of the coarser one.
-    pub(crate) fn levels_for(&self, texture_units: f64) -> (usize, usize, f64) {
-        let top = self.levels.len() - 1;
-        let lod = (texture_units * self.levels[0].0 as f64).max(1.0).log2().min(top as f64);
-        let l = (lod.floor() as usize).min(top);
-        (l, (l + 1).min(top), lod - l as f64)
-    }
 }
 
 /// The texture (linear RGB, `size` x `size`) as the crop's pixels would show it through the transform.
