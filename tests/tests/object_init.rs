@@ -197,3 +197,45 @@ fn an_object_with_wall_under_it_is_mounted() {
     assert!((p.translation[1] - 1.4).abs() < 0.1, "base at {} m", p.translation[1]);
     assert!((p.scale - 1.0).abs() < 0.2, "scale {}", p.scale);
 }
+
+/// A chair whose top is thin: a frame of 2 cm bars 0.3 m above its solid back, a pixel or so wide here, which
+/// the mask shrunk by a pixel (where the points come from) loses. Real room05's bentwood chair: its points
+/// stopped at 0.57 m for 0.75, its model was tried only at 0.77 of its size and another chair won. Stated: the
+/// thin-topped chair retrieved among the generator's six chairs, at its size within 10 %.
+#[test]
+fn a_chair_with_a_thin_top_is_retrieved_at_its_size() {
+    use psdr_tests::furniture::{stage_rooms, variant, BoxModel};
+    let dir = temp_dir("object-thin-top");
+    let db_dir = dir.join("db");
+    std::fs::create_dir_all(&db_dir).unwrap();
+    for k in 0..6 {
+        std::fs::write(db_dir.join(format!("chair_{k}.obj")), variant("chair", k)).unwrap();
+    }
+    let (w, seat, back, bar) = (0.46, 0.45, 0.8, 0.02);
+    let mut m = BoxModel::default();
+    m.add([-w / 2.0, seat - 0.05, -w / 2.0], [w / 2.0, seat, w / 2.0]);
+    m.add([-w / 2.0, seat, -w / 2.0], [w / 2.0, back, -w / 2.0 + 0.05]);
+    for (sx, sz) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
+        let (x, z) = (sx * (w / 2.0 - 0.03), sz * (w / 2.0 - 0.03));
+        m.add([x - 0.025, 0.0, z - 0.025], [x + 0.025, seat - 0.05, z + 0.025]);
+    }
+    let (top, z0) = (back + 0.3, -w / 2.0 + 0.015);
+    for x in [-w / 2.0 + 0.02, w / 2.0 - 0.02 - bar] {
+        m.add([x, back, z0], [x + bar, top, z0 + bar]);
+    }
+    m.add([-w / 2.0 + 0.02, top - bar, z0], [w / 2.0 - 0.02, top, z0 + bar]);
+    std::fs::write(db_dir.join("chair_thin.obj"), m.obj()).unwrap();
+    let db = ModelSet::from_folder(&db_dir).unwrap();
+    let (r, _) = stage_rooms();
+    let items = [Item { model: "chair_thin", at: Vec3::new(0.7, 0.0, 0.1), yaw: 20.0 }];
+    let (room, classes) = room_scene(&r, &[], false, 256, 192);
+    let (_, f, inst) = furnished_room(&room, &classes, &items, &db_dir);
+    let (placed, _) = init_objects(&room, &f.depth, &inst, &db, &ObjectInitOptions::default());
+    let (p, _) = &placed[0];
+    eprintln!(
+        "{} at scale {:.3} (iou {:.3}); alternatives {:?}",
+        p.chosen.model, p.scale, p.chosen.iou, p.alternatives
+    );
+    assert_eq!(p.chosen.model, "chair_thin");
+    assert!((p.scale - 1.0).abs() < 0.1, "scale {}", p.scale);
+}
