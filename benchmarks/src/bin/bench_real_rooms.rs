@@ -529,9 +529,11 @@ fn chart(csv: &str) -> String {
     )
 }
 
-/// Image error (clipped) against total time per preset (fast, default, thorough): each room a point, each preset's
-/// median a labelled point, over the rooms every preset and the truth finished; the true scenes' median error
-/// as the floor (what any fit reaches at the evaluation's samples). None until a preset besides the default ran.
+/// Image error against total time per preset (fast, default, thorough): each room a point, each preset's median
+/// a labelled point, over the rooms every preset and the truth finished; the true scenes' median error as the
+/// floor (what any fit reaches at the evaluation's samples). The error is the evaluation's (its render at the
+/// script's `evaluation_spp`, as the headline numbers), not render.png's at 4 samples, whose noise would hide
+/// the presets' differences. None until a preset besides the default ran.
 fn presets_chart(rows: &[Vec<&str>]) -> Option<XyChart> {
     let names: Vec<&str> = std::iter::once("default").chain(PRESETS.iter().map(|(n, _)| *n)).collect();
     let value = |r: &Vec<&str>, i: usize| r.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::NAN);
@@ -557,7 +559,7 @@ fn presets_chart(rows: &[Vec<&str>]) -> Option<XyChart> {
     let mut chart = XyChart::new(
         &format!("Image RMSE at 1/8 size against total time ({} rooms)", rooms.len()),
         "seconds per photo (2 CPU cores)",
-        "% of the photo's mean (render.png, clipped as the photo)",
+        "% of the photo's mean",
     );
     let colours = ["#d62728", "#1f77b4", "#2ca02c"];
     let mut medians = vec![];
@@ -566,11 +568,11 @@ fn presets_chart(rows: &[Vec<&str>]) -> Option<XyChart> {
         let of: Vec<&Vec<&str>> = rooms.iter().filter_map(|room| row(room, mode)).collect();
         let points: Vec<Point> = of
             .iter()
-            .map(|r| Point::labelled(value(r, COL_TOTAL), value(r, COL_CLIPPED), r[0].trim_start_matches("room")))
+            .map(|r| Point::labelled(value(r, COL_TOTAL), value(r, COL_IMAGE), r[0].trim_start_matches("room")))
             .collect();
         let (t, e) = (
             median(of.iter().map(|r| value(r, COL_TOTAL)).collect()),
-            median(of.iter().map(|r| value(r, COL_CLIPPED)).collect()),
+            median(of.iter().map(|r| value(r, COL_IMAGE)).collect()),
         );
         span = (
             span.0.min(points.iter().map(|p| p.x).fold(f64::INFINITY, f64::min)),
@@ -583,7 +585,7 @@ fn presets_chart(rows: &[Vec<&str>]) -> Option<XyChart> {
     }
     medians.sort_by(|a, b| a.x.total_cmp(&b.x));
     chart.series.push(Series::marked("medians", medians).color("#444444"));
-    let floor = median(rooms.iter().filter_map(|room| row(room, "truth")).map(|r| value(r, COL_CLIPPED)).collect());
+    let floor = median(rooms.iter().filter_map(|room| row(room, "truth")).map(|r| value(r, COL_IMAGE)).collect());
     let mut truth = Series::line(
         format!("true scene, median {floor:.1} % (the floor)"),
         vec![Point::new(0.0, floor), Point::new(span.1 * 1.05, floor)],
