@@ -55,11 +55,12 @@ fn objects_init(run: &RunRef, obs: &ObsHandle, scene: &mut SceneHandle, opts: &M
             "merge_min_span" => o.merge_min_span = num.clamp(0.0, 1.0) as f32,
             "wall_tie" => o.wall_tie = num.max(0.0) as f32,
             "occluder_depth" => o.occluder_depth = num.max(0.0) as f32,
+            "thin_top" => o.thin_top = num.max(1.0) as f32,
             other => {
                 return Err(Error::Invalid(format!(
                     "objects_init: unknown option '{other}' (db, placeholders, min_pixels, erode, yaws, sweep_width, top_k, depth_weight, max_candidates, \
                      scale_weight, finalists, scale_step, silhouette_weight, embedding, embedding_weight, merge_bridges, \
-                     merge_depth_tolerance, merge_min_span, wall_tie, occluder_depth)"
+                     merge_depth_tolerance, merge_min_span, wall_tie, occluder_depth, thin_top)"
                 )))
             }
         }

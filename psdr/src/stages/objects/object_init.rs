@@ -63,16 +63,15 @@ pub struct ObjectInitOptions {
     /// Poses scoring within this of the best are told apart by the wall prior: an object standing against a
     /// wall turns its back to it (a cabinet turned round looks the same but for a handle under a pixel).
     pub wall_tie: f32,
+    /// The whole mask's top over the top of the shrunk mask's points by more than this factor: the models are
+    /// ranked and tried at both heights (a thin top the shrinking loses; infinite: the points' top alone).
+    pub thin_top: f32,
     /// How much nearer the camera (metres of depth) an instance right below another's bottom pixels must be
     /// to hide that bottom rather than hold it up (`object_support::hides_bottom`): a table's top a pixel
     /// below a lamp's base is 1-3 cm nearer at 3 m (looking down at it), an armchair in front of a shelf 0.3 m
     /// or more.
     pub occluder_depth: f32,
 }
-
-/// The whole mask's top over the shrunk mask's points' by more than this factor: the object is tried at both
-/// heights.
-const THIN_TOP: f32 = 1.1;
 
 impl Default for ObjectInitOptions {
     fn default() -> Self {
@@ -94,6 +93,7 @@ impl Default for ObjectInitOptions {
             merge_min_span: 0.25,
             wall_tie: 0.02,
             occluder_depth: 0.1,
+            thin_top: 1.1,
         }
     }
 }
@@ -372,7 +372,7 @@ pub fn init_objects_with(
         };
         // Where the two differ by more than a tenth, either may be the height (a thin top, or a table's edge
         // mixed with what stands behind it: real room04's 0.75 m table read 0.87): both are tried.
-        let heights: Vec<f32> = if whole_top > THIN_TOP * top { vec![top, whole_top] } else { vec![top] };
+        let heights: Vec<f32> = if whole_top > opts.thin_top * top { vec![top, whole_top] } else { vec![top] };
         let target = sweep_target(inst, depth, i.id, sw as usize, sh as usize);
         // Candidates: the class's models, else a box of the observed size.
         // A large class is cut to the models whose real size is closest to what the points show (height, and
